@@ -1,0 +1,103 @@
+"""``lidartrees`` command line, GDAL/OGR style (``-tr``, ``-a_srs``, ``-t_srs``, ``-co``,
+``-overwrite``, ``-q``). Options are built from :mod:`lidartrees_gis.commands`.
+
+Exit codes: 0 success, 1 error (one-line message on stderr), 2 usage error, 130 cancelled.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from . import __version__
+from .commands import COMMANDS
+from .errors import Cancelled, LidarTreesError
+from .progress import NullProgress, TqdmProgress
+
+
+def _add_param(sp, p):
+    if p.positional:
+        if p.required or p.kind not in ("outdir",):
+            sp.add_argument(p.name, help=p.help)
+        else:
+            sp.add_argument(p.name, nargs="?", default=p.default, help=p.help)
+        return
+    flags = [p.flag, *p.aliases]
+    if p.kind == "bool":
+        sp.add_argument(*flags, dest=p.name, action="store_true", default=p.default, help=p.help)
+    elif p.kind == "kv":
+        sp.add_argument(*flags, dest=p.name, action="append", metavar="KEY=VALUE", help=p.help)
+    elif p.kind == "choice":
+        sp.add_argument(*flags, dest=p.name, choices=p.choices, default=p.default, help=p.help)
+    else:
+        sp.add_argument(*flags, dest=p.name, default=p.default, required=p.required,
+                        metavar=p.name.upper(), help=p.help + (f" [{p.unit}]" if p.unit else ""))
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``lidartrees`` argument parser."""
+    ap = argparse.ArgumentParser(prog="lidartrees", allow_abbrev=False,
+                                 description="LiDAR point clouds of planted forests to canopy height "
+                                             "rasters, tree tops and crowns.")
+    ap.add_argument("--version", action="version", version=f"lidartrees_gis {__version__}")
+    sub = ap.add_subparsers(dest="command", metavar="COMMAND")
+    for cmd in COMMANDS.values():
+        sp = sub.add_parser(cmd.name, help=cmd.summary, description=cmd.summary + ". " + cmd.help,
+                            allow_abbrev=False)
+        for p in cmd.params:
+            _add_param(sp, p)
+        sp.add_argument("-q", "--quiet", action="store_true", help="No progress bar or summary")
+    return ap
+
+
+def _print_result(name, res, quiet, as_json):
+    if as_json:
+        print(json.dumps(res, indent=2, default=str))
+        return
+    if quiet or not isinstance(res, dict):
+        return
+    if name == "info":
+        for k, v in res.items():
+            if k != "crs_wkt":
+                print(f"{k}: {v}")
+        return
+    for k, v in res.items():
+        if v is not None and k not in ("table",):
+            print(f"{k}: {v}", file=sys.stderr)
+    if "table" in res:
+        print(res["table"])
+
+
+def main(argv=None) -> int:
+    """Run the CLI; returns the exit code."""
+    ap = build_parser()
+    args = ap.parse_args(argv)
+    if not args.command:
+        ap.print_help(sys.stderr)
+        return 2
+    cmd = COMMANDS[args.command]
+    kw = {p.name: getattr(args, p.name) for p in cmd.params}
+    as_json = bool(kw.pop("json", False))
+    progress = NullProgress() if args.quiet else TqdmProgress(desc=cmd.name)
+    try:
+        res = cmd.run(**kw, progress=progress)
+    except Cancelled:
+        print("lidartrees: cancelled", file=sys.stderr)
+        return 130
+    except KeyboardInterrupt:
+        print("lidartrees: interrupted; no output written", file=sys.stderr)
+        return 130
+    except LidarTreesError as exc:
+        if hasattr(progress, "close"):
+            progress.close()
+        print(f"lidartrees {cmd.name}: error: {exc}", file=sys.stderr)
+        return 1
+    finally:
+        if hasattr(progress, "close"):
+            progress.close()
+    _print_result(cmd.name, res, args.quiet, as_json)
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,176 @@
+"""Coordinate reference systems: parsing user text, shorthands and reprojection reports.
+
+Accepted CRS text (``-a_srs``, ``-s_srs``, ``-t_srs``):
+
+* ``EPSG:29194``, ``29194``, WKT, PROJ strings, anything :func:`pyproj.CRS.from_user_input` reads;
+* Brazilian shorthands: ``SAD69/UTM24S``, ``SIRGAS2000/UTM24S``, ``WGS84/UTM23S``, and the band
+  style of the seeds, ``SAD69 24K`` (UTM zone 24, latitude band K, which is south of the equator).
+"""
+from __future__ import annotations
+
+import re
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pyproj
+from pyproj.transformer import TransformerGroup
+
+from .errors import CRSError
+
+_DATUMS = {
+    "SAD69": "SAD69",
+    "SAD-69": "SAD69",
+    "SIRGAS2000": "SIRGAS 2000",
+    "SIRGAS-2000": "SIRGAS 2000",
+    "SIRGAS": "SIRGAS 2000",
+    "WGS84": "WGS 84",
+    "WGS-84": "WGS 84",
+}
+_SHORT = re.compile(
+    r"^\s*(?P<datum>SAD[- ]?69|SIRGAS(?:[- ]?2000)?|WGS[- ]?84)\s*[/ ]\s*(?:UTM)?\s*(?:ZONE)?\s*"
+    r"(?P<zone>\d{1,2})\s*(?P<hemi>[A-Z])\s*$",
+    re.IGNORECASE,
+)
+
+
+def _utm_name(datum: str, zone: int, south: bool) -> str:
+    return f"{datum} / UTM zone {zone}{'S' if south else 'N'}"
+
+
+def parse_crs(text, *, param: str = "-a_srs") -> pyproj.CRS:
+    """Parse a CRS given as text, EPSG code, shorthand or an existing CRS object.
+
+    Parameters
+    ----------
+    text : str, int or pyproj.CRS
+        ``EPSG:29194``, ``29194``, WKT, PROJ, ``SAD69/UTM24S`` or ``SAD69 24K``.
+    param : str
+        Name of the option the text came from, used in error messages.
+
+    Returns
+    -------
+    pyproj.CRS
+
+    Examples
+    --------
+    >>> parse_crs("SAD69 24K").to_epsg()
+    29194
+    >>> parse_crs("SIRGAS2000/UTM24S").to_epsg()
+    31984
+    """
+    if isinstance(text, pyproj.CRS):
+        return text
+    if text is None or (isinstance(text, str) and not text.strip()):
+        raise CRSError(f"{param}: empty CRS; give e.g. EPSG:29194 or SAD69/UTM24S")
+    if hasattr(text, "to_wkt"):
+        return pyproj.CRS.from_wkt(text.to_wkt())
+    s = str(text).strip()
+    if s.isdigit():
+        s = f"EPSG:{s}"
+    m = _SHORT.match(s)
+    if m:
+        key = m.group("datum").upper().replace("-", "").replace(" ", "")
+        datum = _DATUMS.get(key) or _DATUMS["SIRGAS2000"]
+        zone = int(m.group("zone"))
+        hemi = m.group("hemi").upper()
+        if hemi == "S":  # "S" means the southern hemisphere (not latitude band S)
+            south = True
+        elif hemi in "CDEFGHJKLM":  # latitude bands south of the equator
+            south = True
+        elif hemi in "NPQRSTUVWX":
+            south = False
+        else:
+            raise CRSError(f"{param}: {text!r}: unknown hemisphere/band letter {hemi!r}")
+        if not 1 <= zone <= 60:
+            raise CRSError(f"{param}: {text!r}: UTM zone must be 1-60")
+        name = _utm_name(datum, zone, south)
+        found = pyproj.database.query_crs_info(auth_name="EPSG", pj_types="PROJECTED_CRS")
+        for info in found:
+            if info.name == name and not info.deprecated:
+                return pyproj.CRS.from_epsg(int(info.code))
+        raise CRSError(f"{param}: {text!r}: no EPSG CRS named {name!r}")
+    try:
+        return pyproj.CRS.from_user_input(s)
+    except pyproj.exceptions.CRSError as exc:
+        raise CRSError(
+            f"{param}: cannot understand CRS {text!r} ({exc}); give an EPSG code such as "
+            "EPSG:29194, WKT, a PROJ string or a shorthand such as SAD69/UTM24S"
+        ) from None
+
+
+def crs_from_sidecar(path) -> pyproj.CRS | None:
+    """Read a CRS from a ``.prj`` file next to ``path`` (``pts.xyz.prj`` or ``pts.prj``)."""
+    p = Path(path)
+    for cand in (Path(str(p) + ".prj"), p.with_suffix(".prj")):
+        if cand.exists():
+            try:
+                return pyproj.CRS.from_user_input(cand.read_text().strip())
+            except pyproj.exceptions.CRSError as exc:
+                raise CRSError(f"{cand}: not a readable CRS ({exc})") from None
+    return None
+
+
+def crs_label(crs) -> str:
+    """Short label such as ``EPSG:29194 (SAD69 / UTM zone 24S)``; ``none`` for no CRS."""
+    if crs is None:
+        return "none"
+    epsg = crs.to_epsg()
+    return f"EPSG:{epsg} ({crs.name})" if epsg else crs.name
+
+
+@dataclass(frozen=True)
+class Reprojection:
+    """A coordinate operation chosen to reproject points, with what the user must know."""
+
+    src: pyproj.CRS
+    dst: pyproj.CRS
+    transformer: pyproj.Transformer
+    description: str
+    accuracy: float | None
+    note: str
+
+    def __call__(self, x, y, z=None):
+        if z is None:
+            return self.transformer.transform(x, y)
+        return self.transformer.transform(x, y, z)
+
+    def report(self) -> str:
+        acc = "unknown" if self.accuracy is None or self.accuracy < 0 else f"{self.accuracy:g} m"
+        return f"{crs_label(self.src)} -> {crs_label(self.dst)}: {self.description} (accuracy {acc}){self.note}"
+
+
+def reprojection(src, dst) -> Reprojection:
+    """Choose the best available operation from ``src`` to ``dst`` and describe it.
+
+    SAD69 -> SIRGAS 2000 without the IBGE grid (``br_ibge_SAD69_003.tif``) in the PROJ data
+    directory uses the Helmert shift (stated accuracy 5 m); with the grid, the grid (about 1 m).
+    The note says when a more accurate operation exists but its grid is missing.
+    """
+    src = parse_crs(src, param="-s_srs")
+    dst = parse_crs(dst, param="-t_srs")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # missing grids are reported in the note
+            group = TransformerGroup(src, dst, always_xy=True)
+    except pyproj.exceptions.ProjError as exc:
+        raise CRSError(f"no transformation from {crs_label(src)} to {crs_label(dst)}: {exc}") from None
+    if not group.transformers:
+        raise CRSError(f"no usable transformation from {crs_label(src)} to {crs_label(dst)}")
+    tr = group.transformers[0]
+    acc = tr.accuracy if tr.accuracy is not None and tr.accuracy >= 0 else None
+    note = ""
+    better = [op for op in group.unavailable_operations
+              if op.accuracy is not None and op.accuracy >= 0 and (acc is None or op.accuracy < acc)]
+    if better:
+        grids = sorted({g.short_name for op in better for g in op.grids if not g.available})
+        note = (f"; a more accurate operation ({better[0].name}, {better[0].accuracy:g} m) needs grid(s) "
+                f"{', '.join(grids)} in the PROJ data directory ({pyproj.datadir.get_data_dir()})")
+    return Reprojection(src, dst, tr, tr.description, acc, note)
+
+
+def transform_points(x: np.ndarray, y: np.ndarray, repro: Reprojection):
+    """Transform coordinate arrays with a :class:`Reprojection`; returns new arrays."""
+    xx, yy = repro(np.asarray(x, float), np.asarray(y, float))
+    return np.asarray(xx), np.asarray(yy)

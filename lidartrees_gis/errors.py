@@ -1,0 +1,30 @@
+"""Exception hierarchy of lidartrees_gis.
+
+Every error raised on purpose by the library derives from :class:`LidarTreesError`.
+Subclasses also derive from the matching built-in so callers can catch either.
+Messages say what is wrong, where (file:line or parameter), the bad value and what to do.
+"""
+
+
+class LidarTreesError(Exception):
+    """Root of all lidartrees_gis errors."""
+
+
+class InputError(LidarTreesError, ValueError):
+    """Bad input data or a bad parameter value."""
+
+
+class ReadError(LidarTreesError, OSError):
+    """A file cannot be opened or read."""
+
+
+class CRSError(LidarTreesError, ValueError):
+    """A coordinate reference system is missing, unknown or cannot be transformed."""
+
+
+class OutputExistsError(LidarTreesError, FileExistsError):
+    """An output exists and overwriting was not allowed."""
+
+
+class Cancelled(LidarTreesError):
+    """The user cancelled the operation."""

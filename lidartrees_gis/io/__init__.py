@@ -1,0 +1,1 @@
+"""Readers and writers: points (XYZ text, LAS/LAZ), rasters (GeoTIFF), vectors (GeoPackage)."""

@@ -1,0 +1,102 @@
+"""GeoTIFF reading and writing (rasterio): CRS, nodata, float32, DEFLATE, tiled, provenance tags."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from .. import __version__
+from ..errors import InputError, ReadError
+from .output import atomic_output
+
+NODATA = -9999.0
+DEFAULT_CO = {"COMPRESS": "DEFLATE", "TILED": "YES", "BLOCKXSIZE": "256", "BLOCKYSIZE": "256",
+              "PREDICTOR": "2"}
+
+
+def parse_kv(items, param="-co") -> dict:
+    """``["K=V", ...]`` to a dict, with a clear error for malformed items."""
+    out = {}
+    for it in items or ():
+        if "=" not in it:
+            raise InputError(f"{param}: expected KEY=VALUE, got {it!r}")
+        k, v = it.split("=", 1)
+        out[k.strip().upper()] = v.strip()
+    return out
+
+
+def _rio_crs(crs):
+    from rasterio.crs import CRS
+
+    if crs is None:
+        return None
+    epsg = crs.to_epsg()
+    return CRS.from_epsg(epsg) if epsg else CRS.from_wkt(crs.to_wkt())
+
+
+def write_geotiff(path, array, spec, *, overwrite=False, nodata=NODATA, dtype="float32",
+                  creation_options=None, tags=None, description=None) -> None:
+    """Write one band to a GeoTIFF atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+    array : (M, N) ndarray
+        NaN cells are written as ``nodata``.
+    spec : GridSpec
+        Georeferencing (transform and CRS).
+    overwrite : bool
+        Replace an existing file; otherwise it is refused and left untouched.
+    creation_options : dict, optional
+        GDAL creation options (``-co``) added to / overriding DEFLATE, tiled 256x256.
+    tags : dict, optional
+        Provenance tags (values are JSON-encoded when not strings).
+    """
+    import rasterio
+
+    arr = np.asarray(array)
+    if arr.shape != spec.shape:
+        raise InputError(f"array shape {arr.shape} does not match grid {spec.shape}")
+    co = dict(DEFAULT_CO)
+    co.update({k.upper(): v for k, v in (creation_options or {}).items()})
+    if spec.width < 16 or spec.height < 16:
+        co.pop("TILED", None), co.pop("BLOCKXSIZE", None), co.pop("BLOCKYSIZE", None)
+    if np.dtype(dtype).kind == "f":
+        out = np.where(np.isnan(arr), nodata, arr).astype(dtype)
+    else:
+        out = arr.astype(dtype)
+        if co.get("PREDICTOR") == "3":
+            co["PREDICTOR"] = "2"
+    with atomic_output(path, overwrite) as tmp:
+        with rasterio.open(tmp, "w", driver="GTiff", width=spec.width, height=spec.height, count=1,
+                           dtype=dtype, crs=_rio_crs(spec.crs), transform=spec.transform,
+                           nodata=nodata, **co) as ds:
+            ds.write(out, 1)
+            t = {"LIDARTREES_VERSION": __version__}
+            for k, v in (tags or {}).items():
+                t[str(k).upper()] = v if isinstance(v, str) else json.dumps(v, default=str)
+            ds.update_tags(**t)
+            if description:
+                ds.set_band_description(1, description)
+
+
+def read_raster(path):
+    """Read band 1 of a raster: ``(array float64 with NaN nodata, GridSpec, tags)``."""
+    import pyproj
+    import rasterio
+
+    from ..grid import GridSpec
+
+    try:
+        with rasterio.open(path) as ds:
+            arr = ds.read(1).astype(np.float64)
+            if ds.nodata is not None:
+                arr[arr == ds.nodata] = np.nan
+            t = ds.transform
+            if abs(t.a + t.e) > 1e-9 * abs(t.a) or t.b or t.d:
+                raise InputError(f"{path}: only north-up rasters with square cells are supported")
+            crs = pyproj.CRS.from_wkt(ds.crs.to_wkt()) if ds.crs else None
+            spec = GridSpec(t.c, t.f, t.a, ds.width, ds.height, crs)
+            return arr, spec, ds.tags()
+    except rasterio.errors.RasterioIOError as exc:
+        raise ReadError(f"{path}: cannot read raster ({exc})") from None

@@ -1,0 +1,260 @@
+"""Composed chains that the CLI and the QGIS provider call: points -> grids -> files.
+
+Each ``*_file`` function validates its parameters, does the work with a progress object and
+writes its outputs atomically; it returns a small dict describing what it did.
+"""
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__
+from .crs import crs_label
+from .errors import InputError
+from .grid import GridAccumulator, GridSpec, auto_resolution, check_resolution, fill_gaps, interpolate_tin
+from .io.points import PointSource, open_points
+from .io.raster import read_raster, write_geotiff
+from .progress import SubProgress, as_progress
+
+DTM_CHOICES = "min, ground, lowest:R, none, auto or a DTM GeoTIFF path"
+
+
+def open_input(path, *, a_srs=None, t_srs=None, require_crs=False, **kw) -> PointSource:
+    """Open a point file (see :func:`lidartrees_gis.io.points.open_points`)."""
+    return open_points(path, a_srs=a_srs, t_srs=t_srs, require_crs=require_crs, **kw)
+
+
+def info(src: PointSource, progress=None) -> dict:
+    """Points, bounds, density (pts/m²), CRS, classes and returns of a point source."""
+    st = src.scan(progress)
+    out = {
+        "file": str(src.path),
+        "format": src.format,
+        "points": st.count,
+        "skipped": st.skipped,
+        "bounds": list(st.bounds),
+        "z_range": list(st.zrange),
+        "area_m2": st.area,
+        "density_pts_m2": None if math.isnan(st.density) else st.density,
+        "crs": crs_label(src.crs),
+        "crs_wkt": src.crs.to_wkt() if src.crs is not None else None,
+        "classes": st.classes,
+        "returns": st.returns,
+    }
+    if src.format == "las":
+        out["las_version"] = src.header_info.get("version")
+        out["point_format"] = src.header_info.get("point_format")
+    else:
+        out["dialect"] = src.dialect.describe()
+    return out
+
+
+def resolve_resolution(src: PointSource, res, progress=None) -> float:
+    """A number, or ``"auto"`` = sqrt(1/n) from the point density n (seed 003)."""
+    if isinstance(res, str) and res.strip().lower() == "auto":
+        hb = src.header_bounds()
+        if hb is not None and src.count_hint:
+            area = (hb[2] - hb[0]) * (hb[3] - hb[1])
+            return auto_resolution(src.count_hint, area)
+        st = src.scan(progress)
+        return auto_resolution(st.count, st.area)
+    if res is None:
+        raise InputError("-tr: a resolution is required (a number in metres, or auto)")
+    return check_resolution(res)
+
+
+def grid_spec_for(src: PointSource, res: float, progress=None) -> GridSpec:
+    """The aligned grid that holds every point of ``src``."""
+    b = src.header_bounds()
+    if b is None:
+        b = src.scan(progress).bounds
+    return GridSpec.from_bounds(*b, res, crs=src.crs)
+
+
+@dataclass
+class DtmMethod:
+    """Parsed ``-dtm`` value."""
+
+    kind: str  # min | ground | lowest | none | auto | file
+    size: float | None = None
+    path: str | None = None
+
+    @classmethod
+    def parse(cls, value) -> "DtmMethod":
+        v = "min" if value is None else str(value).strip()
+        low = v.lower()
+        if low in ("min", "ground", "none", "auto"):
+            return cls(low)
+        m = re.fullmatch(r"lowest(?::([0-9.]+))?", low)
+        if m:
+            size = float(m.group(1) or 5.0)
+            if size <= 0:
+                raise InputError(f"-dtm: lowest:R needs R > 0, got {value!r}")
+            return cls("lowest", size=size)
+        if low.endswith((".tif", ".tiff", ".vrt", ".img")) or Path(v).exists():
+            if not Path(v).exists():
+                raise InputError(f"-dtm: DTM file {v} does not exist")
+            return cls("file", path=v)
+        raise InputError(f"-dtm: unknown value {value!r}; use {DTM_CHOICES}")
+
+    def describe(self) -> str:
+        return {"lowest": f"lowest:{self.size:g}", "file": self.path}.get(self.kind, self.kind)
+
+
+def compute_surfaces(src: PointSource, res, *, dtm="min", fill="mean8", progress=None) -> dict:
+    """DSM (max z), DTM and CHM = DSM - DTM on one aligned grid, in one pass over the points.
+
+    Parameters
+    ----------
+    src : PointSource
+    res : float or "auto"
+        Cell size in metres.
+    dtm : str
+        ``min`` lowest point per cell (seed 000's simple method); ``ground`` lowest class-2 point
+        per cell, linearly interpolated (TIN) over the grid; ``lowest:R`` lowest point per R-metre
+        cell, interpolated (TIN); ``none`` heights are already normalised (DTM = 0); ``auto``
+        ``ground`` when the file has class-2 points, else ``lowest:5``; or a DTM GeoTIFF path,
+        resampled bilinearly onto the grid.
+    fill : {"mean8", "none"}
+        Gap filling of the DSM and of the ``min`` DTM (seed 000).
+
+    Returns
+    -------
+    dict with ``dsm``, ``dtm``, ``chm`` (float64 arrays, NaN = nodata), ``spec``, ``res``,
+    ``dtm_method``, ``points``.
+    """
+    prog = as_progress(progress)
+    method = DtmMethod.parse(dtm)
+    res = resolve_resolution(src, res, SubProgress(prog, 0.0, 0.3))
+    spec = grid_spec_for(src, res, SubProgress(prog, 0.0, 0.3))
+    stats = ("max", "min") if method.kind == "min" else ("max",)
+    acc = GridAccumulator(spec, stats)
+    gacc = GridAccumulator(spec, ("min",)) if method.kind in ("ground", "auto") else None
+    lacc = None
+    if method.kind in ("lowest", "auto"):
+        size = method.size or 5.0
+        b = spec.bounds
+        lacc = GridAccumulator(GridSpec.from_bounds(*b, size, crs=spec.crs), ("min",))
+    n = 0
+    for chunk in src.chunks(SubProgress(prog, 0.3, 0.85)):
+        n += len(chunk)
+        acc.add(chunk.x, chunk.y, chunk.z)
+        if gacc is not None and chunk.classification is not None:
+            g = chunk.classification == 2
+            if g.any():
+                gacc.add(chunk.x[g], chunk.y[g], chunk.z[g])
+        if lacc is not None:
+            lacc.add(chunk.x, chunk.y, chunk.z)
+    if n == 0:
+        raise InputError(f"{src.path}: no points")
+    dsm_raw = acc.result("max")
+    prog.update(0.86, "filling gaps")
+    dsm = fill_gaps(dsm_raw, fill)
+    kind = method.kind
+    if kind == "auto":
+        kind = "ground" if int(np.isfinite(gacc.result("min")).sum()) >= 3 else "lowest"
+    if kind == "min":
+        dtm_arr = fill_gaps(acc.result("min"), fill)
+    elif kind == "none":
+        dtm_arr = np.zeros(spec.shape)
+    elif kind == "ground":
+        gmin = gacc.result("min")
+        r, c = np.nonzero(~np.isnan(gmin))
+        if r.size == 0:
+            raise InputError(f"{src.path}: -dtm ground: the file has no ground (class 2) points; "
+                             "use -dtm min, lowest:R or a DTM GeoTIFF")
+        gx, gy = spec.xy(r, c)
+        dtm_arr = interpolate_tin(gx, gy, gmin[r, c], spec)
+    elif kind == "lowest":
+        lmin = lacc.result("min")
+        r, c = np.nonzero(~np.isnan(lmin))
+        gx, gy = lacc.spec.xy(r, c)
+        dtm_arr = interpolate_tin(gx, gy, lmin[r, c], spec)
+    else:  # file
+        arr, dspec, _ = read_raster(method.path)
+        from .grid import resample_to
+        from .io.raster import _rio_crs
+
+        dtm_arr = resample_to(arr, dspec.transform, _rio_crs(dspec.crs or spec.crs), spec)
+    prog.update(0.95, "canopy height")
+    chm = dsm - dtm_arr
+    return {"dsm": dsm, "dtm": dtm_arr, "chm": chm, "spec": spec, "res": res, "dtm_method": kind if method.kind != "file" else method.path,
+            "points": n, "outside": acc.outside}
+
+
+def _tags(command: str, src: PointSource, params: dict) -> dict:
+    return {"LIDARTREES_COMMAND": command, "LIDARTREES_INPUT": str(src.path),
+            "LIDARTREES_PARAMETERS": {k: v for k, v in params.items() if v is not None},
+            "LIDARTREES_CRS": crs_label(src.crs), "LIDARTREES_TOOL": f"lidartrees_gis {__version__}"}
+
+
+def grid_file(input, output, *, res, stat="max", fill="none", a_srs=None, t_srs=None,
+              creation_options=None, overwrite=False, progress=None, **read_kw) -> dict:
+    """Grid a point file into a GeoTIFF with one statistic per cell.
+
+    ``stat`` is ``max``, ``min``, ``mean`` or ``count``; empty cells are nodata (0 for count)
+    unless ``fill="mean8"``. Returns a dict with the grid spec, point count and the output path.
+    """
+    from .io.output import check_output
+
+    check_output(output, overwrite)
+    src = open_input(input, a_srs=a_srs, t_srs=t_srs, **read_kw)
+    prog = as_progress(progress)
+    r = resolve_resolution(src, res, SubProgress(prog, 0, 0.2))
+    spec = grid_spec_for(src, r, SubProgress(prog, 0, 0.2))
+    acc = GridAccumulator(spec, (stat,))
+    n = 0
+    for chunk in src.chunks(SubProgress(prog, 0.2, 0.9)):
+        n += len(chunk)
+        acc.add(chunk.x, chunk.y, chunk.z)
+    if n == 0:
+        raise InputError(f"{input}: no points")
+    arr = acc.result(stat)
+    if stat == "count":
+        if fill not in (None, "none"):
+            raise InputError("-fill: gap filling does not apply to -stat count")
+        write_geotiff(output, arr, spec, overwrite=overwrite, dtype="int32", nodata=None,
+                      creation_options=creation_options,
+                      tags=_tags("grid", src, {"res": r, "stat": stat}), description="count")
+    else:
+        arr = fill_gaps(arr, fill)
+        write_geotiff(output, arr, spec, overwrite=overwrite, creation_options=creation_options,
+                      tags=_tags("grid", src, {"res": r, "stat": stat, "fill": fill}),
+                      description=f"z {stat}")
+    prog.update(1.0, "done")
+    return {"output": str(output), "points": n, "res": r, "shape": spec.shape,
+            "crs": crs_label(spec.crs), "skipped": src.skipped,
+            "reprojection": src.repro.report() if src.repro else None}
+
+
+def chm_file(input, output, *, res, dtm="min", fill="mean8", dsm_out=None, dtm_out=None,
+             a_srs=None, t_srs=None, creation_options=None, overwrite=False, progress=None,
+             **read_kw) -> dict:
+    """Canopy height model GeoTIFF (and optionally the DSM and DTM) from a point file."""
+    from .io.output import check_output
+
+    for p, name in ((output, "OUTPUT"), (dsm_out, "-dsm_out"), (dtm_out, "-dtm_out")):
+        if p is not None:
+            check_output(p, overwrite, param=name)
+    src = open_input(input, a_srs=a_srs, t_srs=t_srs, **read_kw)
+    prog = as_progress(progress)
+    s = compute_surfaces(src, res, dtm=dtm, fill=fill, progress=SubProgress(prog, 0, 0.9))
+    params = {"res": s["res"], "dtm": s["dtm_method"], "fill": fill}
+    write_geotiff(output, s["chm"], s["spec"], overwrite=overwrite, creation_options=creation_options,
+                  tags=_tags("chm", src, params), description="canopy height (m)")
+    if dsm_out:
+        write_geotiff(dsm_out, s["dsm"], s["spec"], overwrite=overwrite,
+                      creation_options=creation_options, tags=_tags("chm", src, params),
+                      description="surface height (m)")
+    if dtm_out:
+        write_geotiff(dtm_out, s["dtm"], s["spec"], overwrite=overwrite,
+                      creation_options=creation_options, tags=_tags("chm", src, params),
+                      description="terrain height (m)")
+    prog.update(1.0, "done")
+    return {"output": str(output), "points": s["points"], "res": s["res"], "shape": s["spec"].shape,
+            "crs": crs_label(s["spec"].crs), "dtm": s["dtm_method"], "skipped": src.skipped,
+            "reprojection": src.repro.report() if src.repro else None}

@@ -1,0 +1,25 @@
+import os
+from pathlib import Path
+
+import pytest
+
+DATA = Path(os.environ.get("LIDARTREES_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data")).resolve()
+
+
+def data_file(rel: str) -> Path:
+    p = DATA / rel
+    if not p.exists():
+        pytest.skip(f"shared data file {rel} not found under {DATA}")
+    return p
+
+
+@pytest.fixture
+def data():
+    return data_file
+
+
+@pytest.fixture(scope="session")
+def stand():
+    from lidartrees_gis.synthetic import make_stand
+
+    return make_stand()

@@ -1,0 +1,112 @@
+import json
+
+import numpy as np
+import pyproj
+import pytest
+import rasterio
+
+from lidartrees_gis.cli import main
+from lidartrees_gis.synthetic import write_xyz_seed_dialect
+
+
+@pytest.fixture
+def seed_xyz(tmp_path, stand):
+    p = tmp_path / "stand.xyz"
+    write_xyz_seed_dialect(p, stand[0])
+    return p
+
+
+def test_grid_xyz_seed_dialect_with_a_srs(tmp_path, seed_xyz, stand):
+    out = tmp_path / "dsm.tif"
+    assert main(["grid", str(seed_xyz), str(out), "-tr", "1", "-a_srs", "EPSG:29194", "-q"]) == 0
+    with rasterio.open(out) as ds:
+        assert ds.crs.to_epsg() == 29194
+        assert ds.res == (1.0, 1.0)
+        assert ds.transform.c % 1 == 0 and ds.transform.f % 1 == 0
+        a = ds.read(1, masked=True)
+        pts = stand[0]
+        assert float(a.max()) == pytest.approx(np.round(pts.z, 4).max(), abs=1e-3)
+        assert ds.tags()["LIDARTREES_COMMAND"] == "grid"
+        assert ds.profile["compress"].lower() == "deflate" and ds.profile["tiled"]
+
+
+def test_grid_reprojected_to_sirgas_shifted_as_pyproj_says(tmp_path, seed_xyz):
+    a, b = tmp_path / "a.tif", tmp_path / "b.tif"
+    assert main(["grid", str(seed_xyz), str(a), "-tr", "1", "-a_srs", "SAD69 24K", "-q"]) == 0
+    assert main(["grid", str(seed_xyz), str(b), "-tr", "1", "-a_srs", "SAD69 24K",
+                 "-t_srs", "EPSG:31984", "-q"]) == 0
+    with rasterio.open(a) as da, rasterio.open(b) as db:
+        assert db.crs.to_epsg() == 31984
+        tr = pyproj.Transformer.from_crs(29194, 31984, always_xy=True)
+        # the highest cell moves with the points: compare its centre to pyproj's shift
+        ia = np.unravel_index(np.argmax(da.read(1)), da.shape)
+        ib = np.unravel_index(np.argmax(db.read(1)), db.shape)
+        xa, ya = da.xy(*ia)
+        xb, yb = db.xy(*ib)
+        ex, ey = tr.transform(xa, ya)
+        assert abs(xb - ex) <= 1.0 and abs(yb - ey) <= 1.0
+        assert abs(xb - xa) > 5 or abs(yb - ya) > 5
+
+
+def test_malformed_line_fails_naming_line_and_leaves_no_output(tmp_path, capsys):
+    lines = [f"{412000 + i * 0.1:.2f}\t7952000,00\t10,0".replace(".", ",") for i in range(2000)]
+    lines[1233] = "412123,4\tX\t10,0"
+    p = tmp_path / "bad.xyz"
+    p.write_text("\n".join(lines) + "\n")
+    out = tmp_path / "out.tif"
+    rc = main(["grid", str(p), str(out), "-tr", "1", "-a_srs", "EPSG:29194", "-q"])
+    assert rc == 1
+    err = capsys.readouterr().err
+    assert "bad.xyz:1234" in err and "412123,4" in err
+    assert list(tmp_path.iterdir()) == [p]
+    assert main(["grid", str(p), str(out), "-tr", "1", "-a_srs", "EPSG:29194", "-q",
+                 "--skip-invalid"]) == 0
+    assert out.exists()
+
+
+def test_existing_output_refused_untouched_then_overwritten(tmp_path, seed_xyz, capsys):
+    out = tmp_path / "o.tif"
+    out.write_bytes(b"keep me")
+    rc = main(["chm", str(seed_xyz), str(out), "-tr", "1", "-a_srs", "EPSG:29194", "-q"])
+    assert rc == 1 and out.read_bytes() == b"keep me"
+    assert "-overwrite" in capsys.readouterr().err
+    assert main(["chm", str(seed_xyz), str(out), "-tr", "1", "-a_srs", "EPSG:29194", "-q",
+                 "-overwrite"]) == 0
+    with rasterio.open(out) as ds:
+        assert ds.crs.to_epsg() == 29194
+
+
+def test_bad_parameter_exit_code_and_message(tmp_path, seed_xyz, capsys):
+    rc = main(["grid", str(seed_xyz), str(tmp_path / "x.tif"), "-tr", "-2", "-a_srs", "EPSG:29194", "-q"])
+    assert rc == 1 and "-tr" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as e:
+        main(["grid", str(seed_xyz), str(tmp_path / "x.tif"), "-tr", "1", "-stat", "median"])
+    assert e.value.code == 2
+
+
+def test_info_json(seed_xyz, capsys, stand):
+    assert main(["info", str(seed_xyz), "-a_srs", "SAD69/UTM24S", "--json", "-q"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["points"] == len(stand[0])
+    assert d["crs"].startswith("EPSG:29194")
+    assert d["density_pts_m2"] == pytest.approx(25, rel=0.05)
+
+
+def test_tr_auto_uses_density(tmp_path, seed_xyz):
+    out = tmp_path / "auto.tif"
+    assert main(["grid", str(seed_xyz), str(out), "-tr", "auto", "-a_srs", "EPSG:29194", "-q"]) == 0
+    with rasterio.open(out) as ds:
+        assert ds.res[0] == pytest.approx(0.2, abs=0.005)  # 25 pts/m2 -> 0.2 m
+
+
+def test_one_point_and_coincident_points(tmp_path):
+    p = tmp_path / "one.xyz"
+    p.write_text("10.2 20.3 5.0\n")
+    out = tmp_path / "one.tif"
+    assert main(["grid", str(p), str(out), "-tr", "1", "-q"]) == 0
+    with rasterio.open(out) as ds:
+        assert ds.shape == (1, 1) and ds.read(1)[0, 0] == 5.0
+    q = tmp_path / "same.xyz"
+    q.write_text("1 1 1\n1 1 2\n")
+    assert main(["grid", str(q), str(tmp_path / "s.tif"), "-tr", "auto", "-q"]) == 1
+    assert not (tmp_path / "s.tif").exists()

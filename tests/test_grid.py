@@ -1,0 +1,114 @@
+import numpy as np
+import pytest
+
+from lidartrees_gis import _accel
+from lidartrees_gis.errors import InputError
+from lidartrees_gis.grid import GridAccumulator, GridSpec, auto_resolution, fill_mean8, rasterize
+
+
+def test_grid_aligned_to_resolution_multiples():
+    s = GridSpec.from_bounds(10.3, 20.7, 12.1, 22.2, 0.5)
+    assert (s.left, s.top) == (10.0, 22.5)
+    assert s.shape == (4, 5)  # y 20.5..22.5, x 10.0..12.5
+    assert s.left % 0.5 == 0 and s.top % 0.5 == 0
+
+
+def test_points_on_cell_edges_go_east_and_north():
+    s = GridSpec.from_bounds(0.0, 0.0, 2.0, 2.0, 1.0)
+    # far edge x=2 / y=2 extends the grid by one cell so nothing is dropped
+    assert s.shape == (3, 3)
+    row, col = s.cell_index(np.array([0.0, 1.0, 2.0, 0.999]), np.array([0.0, 1.0, 2.0, 0.999]))
+    assert col.tolist() == [0, 1, 2, 0]
+    assert row.tolist() == [2, 1, 0, 2]
+
+
+def test_rasterize_exact_values_per_cell():
+    x = np.array([0.1, 0.2, 0.9, 1.5, 1.0, 0.5])
+    y = np.array([0.1, 0.8, 0.5, 1.5, 0.0, 1.5])
+    z = np.array([1.0, 3.0, 2.0, 7.0, 5.0, 4.0])
+    s = GridSpec.from_bounds(x.min(), y.min(), x.max(), y.max(), 1.0)
+    assert s.shape == (2, 2)
+    mx = rasterize(x, y, z, s, "max")
+    mn = rasterize(x, y, z, s, "min")
+    me = rasterize(x, y, z, s, "mean")
+    ct = rasterize(x, y, z, s, "count")
+    # bottom-left cell (row 1, col 0): z 1, 3, 2
+    assert mx[1, 0] == 3.0 and mn[1, 0] == 1.0 and me[1, 0] == pytest.approx(2.0) and ct[1, 0] == 3
+    # bottom-right (x=1.0 on the edge -> col 1): z 5
+    assert mx[1, 1] == 5.0 and ct[1, 1] == 1
+    # top row: (1.5,1.5)->col1 z7 ; (0.5,1.5)->col0 z4
+    assert mx[0, 1] == 7.0 and mx[0, 0] == 4.0
+    assert ct.sum() == x.size
+
+
+def test_empty_cells_are_nan_and_count_zero():
+    s = GridSpec.from_bounds(0, 0, 2.5, 0.5, 1.0)
+    g = rasterize([0.5, 2.5], [0.5, 0.5], [1.0, 2.0], s, "max")
+    assert np.isnan(g[0, 1]) and g[0, 0] == 1.0 and g[0, 2] == 2.0
+    assert rasterize([0.5, 2.5], [0.5, 0.5], [1.0, 2.0], s, "count")[0, 1] == 0
+
+
+def test_accumulator_chunked_equals_one_shot():
+    rng = np.random.default_rng(1)
+    x, y, z = rng.random(5000) * 10, rng.random(5000) * 10, rng.random(5000)
+    s = GridSpec.from_bounds(0, 0, 10, 10, 0.7)
+    acc = GridAccumulator(s, ("max", "min", "mean"))
+    for i in range(0, 5000, 333):
+        acc.add(x[i:i + 333], y[i:i + 333], z[i:i + 333])
+    np.testing.assert_array_equal(acc.result("max"), rasterize(x, y, z, s, "max"))
+    np.testing.assert_allclose(acc.result("mean"), rasterize(x, y, z, s, "mean"))
+
+
+def test_fill_mean8_is_simultaneous_per_pass():
+    # 1 x 5 row: pass 1 fills cells 1 and 3 from the original values only; pass 2 fills cell 2
+    # from the values filled in pass 1. An in-place (Gauss-Seidel) sweep would give 1, 1, 1, 3, 5.
+    g = np.array([[1.0, np.nan, np.nan, np.nan, 5.0]])
+    np.testing.assert_allclose(fill_mean8(g), [[1.0, 1.0, 3.0, 5.0, 5.0]])
+    np.testing.assert_allclose(fill_mean8(g, max_passes=1)[0, [1, 3]], [1.0, 5.0])
+    assert np.isnan(fill_mean8(g, max_passes=1)[0, 2])
+
+
+def test_fill_mean8_uses_all_eight_neighbours():
+    g = np.arange(9, dtype=float).reshape(3, 3)
+    g[1, 1] = np.nan
+    assert fill_mean8(g)[1, 1] == pytest.approx((0 + 1 + 2 + 3 + 5 + 6 + 7 + 8) / 8)
+    # corner: only 3 neighbours inside the grid
+    h = np.array([[np.nan, 2.0], [4.0, 6.0]])
+    assert fill_mean8(h)[0, 0] == pytest.approx(4.0)
+
+
+def test_fill_mean8_all_empty_stays_empty_and_full_unchanged():
+    assert np.isnan(fill_mean8(np.full((2, 2), np.nan))).all()
+    g = np.ones((2, 2))
+    np.testing.assert_array_equal(fill_mean8(g), g)
+
+
+def test_auto_resolution_seed003_rule():
+    # seed 003: 5 pts/m2 -> 0.45 m
+    assert auto_resolution(5 * 1000, 1000.0) == pytest.approx(0.447, abs=1e-3)
+    with pytest.raises(InputError, match="-tr"):
+        auto_resolution(10, 0.0)
+
+
+@pytest.mark.parametrize("bad", [0, -1, "abc", float("nan")])
+def test_bad_resolution_names_parameter(bad):
+    with pytest.raises(InputError, match="-tr"):
+        GridSpec.from_bounds(0, 0, 1, 1, bad)
+
+
+@pytest.mark.skipif(not _accel.HAVE_NUMBA, reason="numba not installed")
+def test_fused_kernel_equals_numpy_path(monkeypatch):
+    rng = np.random.default_rng(3)
+    x, y, z = rng.random(20000) * 50, rng.random(20000) * 50, rng.random(20000)
+    x[:10] = np.round(x[:10])  # points on cell edges
+    s = GridSpec.from_bounds(1, 1, 49, 49, 0.5)  # some points fall outside
+    a = GridAccumulator(s, ("max", "min", "mean"))
+    a.add(x, y, z)
+    monkeypatch.setattr(_accel, "HAVE_NUMBA", False)
+    b = GridAccumulator(s, ("max", "min", "mean"))
+    b.add(x, y, z)
+    assert a.outside == b.outside > 0
+    np.testing.assert_array_equal(a.count, b.count)
+    for st in ("max", "min"):
+        np.testing.assert_array_equal(a.result(st), b.result(st))
+    np.testing.assert_allclose(a.result("mean"), b.result("mean"))
