@@ -101,6 +101,47 @@ def _chm(input, output, **kw):
                              **_read_kw(kw))
 
 
+def _tree_params(kw):
+    from .trees import TreeParams
+
+    names = ("method", "smooth", "min_height", "step", "tops", "mean_crown_area", "sd_crown_area",
+             "max_crown_area", "min_crown_height", "connectivity")
+    conv = {"connectivity": int}
+    vals = {}
+    for n in names:
+        v = kw.get(n)
+        if v is None:
+            continue
+        try:
+            vals[n] = conv.get(n, float)(v) if n not in ("method", "smooth", "tops") else v
+        except ValueError:
+            from .errors import InputError
+
+            raise InputError(f"-{n}: expected a number, got {v!r}") from None
+    return TreeParams(**vals)
+
+
+def _trees(input, output, **kw):
+    from .io.raster import parse_kv
+
+    r = pipeline.trees_file(
+        input, output, res=kw.get("res"), params=_tree_params(kw), dtm=kw.get("dtm") or "auto",
+        fill=kw.get("fill") or "mean8", nln=kw.get("nln") or "",
+        layer_options=parse_kv(kw.get("layer_options"), "-lco"), overwrite=bool(kw.get("overwrite")),
+        append=bool(kw.get("append")), png=kw.get("png"), csv=kw.get("csv"),
+        chm_out=kw.get("chm_out"), progress=kw.get("progress"), **_read_kw(kw))
+    return {k: v for k, v in r.items() if k not in ("result", "spec")}
+
+
+def _compare(input, output, **kw):
+    r = pipeline.compare_file(input, output, res=kw.get("res"), dtm=kw.get("dtm") or "auto",
+                              fill=kw.get("fill") or "mean8",
+                              min_height=float(kw.get("min_height") or 2.0),
+                              step=float(kw.get("step") or 0.1), overwrite=bool(kw.get("overwrite")),
+                              progress=kw.get("progress"), **_read_kw(kw))
+    return {"output": r["output"], "table": r["table"]}
+
+
 def _demo(outdir=None, **kw):
     from .demo import run_demo
 
@@ -130,6 +171,68 @@ COMMANDS = {
          Param("dsm_out", "output", "Also write the DSM here", flag="-dsm_out", advanced=True),
          Param("dtm_out", "output", "Also write the DTM here", flag="-dtm_out", advanced=True),
          *READ, CO, OVERWRITE), _chm, outputs=("output", "dsm_out", "dtm_out")),
+    "trees": Command(
+        "trees", "Trees", "Tree tops, crowns and a stand summary (GeoPackage) from points or a CHM",
+        (Param("input", "input", "Point file (LAS/LAZ, XYZ) or a CHM GeoTIFF"),
+         Param("output", "output", "Output GeoPackage (.gpkg)"),
+         Param("res", "res", "Cell size of the CHM built from points, m, or auto", flag="-tr",
+               aliases=("--resolution",), unit="m"),
+         Param("method", "choice", "Crowns: rg = region growing (Castro 2006 / Hyyppä 2001, seed "
+               "000); treex = TreeX priority growing (seed 001); watershed = Vincent-Soille on the "
+               "inverted CHM (seed 000); mcws = marker-controlled watershed from the tops",
+               flag="-method", choices=("rg", "treex", "watershed", "mcws"), default="rg"),
+         Param("smooth", "str", "CHM filter: none, gauss3 (seed 000 fine mask), gauss5 (coarse "
+               "mask), gauss:SIGMA (m), or OP:ELEMENT[:SIZE], OP in erode, dilate, open, close, "
+               "abefec, fecabe, fecabefec, abefecabe; ELEMENT cross, square, rhombus",
+               flag="-smooth", default="none"),
+         Param("min_height", "float", "Minimum tree height", flag="-min_height", default=2.0,
+               unit="m"),
+         Param("tops", "choice", "Tree tops: lm = 8-neighbour maxima (seed 000), treex = TreeX "
+               "window (seed 001), vwf = height-dependent window; auto = treex for -method treex, "
+               "else lm", flag="-tops", choices=("auto", "lm", "treex", "vwf"), default="auto",
+               advanced=True),
+         Param("step", "float", "Region-growing threshold step (ajuste, seed 000 Annex 2)",
+               flag="-step", default=0.1, advanced=True, unit="m"),
+         Param("mean_crown_area", "float", "TreeX window: mean crown area", flag="-mean_crown_area",
+               default=6.0, advanced=True, unit="m²"),
+         Param("sd_crown_area", "float", "TreeX window step: crown-area standard deviation",
+               flag="-sd_crown_area", default=2.0, advanced=True, unit="m²"),
+         Param("max_crown_area", "float", "TreeX maximum crown area", flag="-max_crown_area",
+               default=16.0, advanced=True, unit="m²"),
+         Param("min_crown_height", "float", "TreeX minimum crown height",
+               flag="-min_crown_height", default=2.0, advanced=True, unit="m"),
+         Param("connectivity", "choice", "TreeX growth neighbourhood", flag="-connectivity",
+               choices=("4", "8"), default="4", advanced=True),
+         Param("dtm", "str", "DTM for points input (see chm); default auto = class-2 ground "
+               "points if any, else lowest:5", flag="-dtm", default="auto", advanced=True),
+         Param("fill", "choice", FILL.help, flag="-fill", choices=("mean8", "none"),
+               default="mean8", advanced=True),
+         Param("nln", "str", "Prefix for the layer names (tree_tops, crowns, summary)",
+               flag="-nln", advanced=True),
+         Param("layer_options", "kv", "GeoPackage layer creation option KEY=VALUE", flag="-lco",
+               advanced=True),
+         Param("png", "output", "Also write a quick-look PNG (equalised CHM, crowns, tops)",
+               flag="-png", advanced=True),
+         Param("csv", "output", "Also write a CSV in TreeX's layout", flag="-csv", advanced=True),
+         Param("chm_out", "output", "Also write the CHM GeoTIFF", flag="-chm_out", advanced=True),
+         *READ, OVERWRITE,
+         Param("append", "bool", "Append to an existing GeoPackage", flag="-append",
+               default=False, advanced=True)), _trees, outputs=("output", "png", "csv", "chm_out")),
+    "compare": Command(
+        "compare", "Trees", "Seed 000 Table 1: ten smoothing/segmentation configurations compared",
+        (Param("input", "input", "Point file (LAS/LAZ, XYZ) or a CHM GeoTIFF"),
+         Param("output", "output", "Output CSV"),
+         Param("res", "res", "Cell size of the CHM built from points, m, or auto", flag="-tr",
+               aliases=("--resolution",), unit="m"),
+         Param("min_height", "float", "Minimum tree height", flag="-min_height", default=2.0,
+               unit="m"),
+         Param("step", "float", "Region-growing threshold step", flag="-step", default=0.1,
+               advanced=True, unit="m"),
+         Param("dtm", "str", "DTM for points input (see chm)", flag="-dtm", default="auto",
+               advanced=True),
+         Param("fill", "choice", FILL.help, flag="-fill", choices=("mean8", "none"),
+               default="mean8", advanced=True),
+         *READ, OVERWRITE), _compare, outputs=("output",)),
     "demo": Command(
         "demo", "Demo", "Generate a synthetic eucalyptus stand with known trees and process it",
         (Param("outdir", "outdir", "Output folder (default lidartrees_demo)", default=None,

@@ -302,3 +302,41 @@ def interpolate_tin(x, y, z, spec: GridSpec) -> np.ndarray:
     if bad.any():
         lin[bad] = NearestNDInterpolator(pts, z)(cx[bad], cy[bad])
     return lin.reshape(spec.shape)
+
+
+class LowestPoints:
+    """The lowest point (x, y, z) of every cell, built chunk by chunk (for ``-dtm lowest:R``)."""
+
+    def __init__(self, spec: GridSpec):
+        self.spec = spec
+        n = spec.width * spec.height
+        self.z = np.full(n, np.inf)
+        self.x = np.zeros(n)
+        self.y = np.zeros(n)
+        self.count = np.zeros(n, np.int64)
+
+    def add(self, x, y, z) -> None:
+        row, col = self.spec.cell_index(x, y)
+        ok = (row >= 0) & (row < self.spec.height) & (col >= 0) & (col < self.spec.width)
+        idx = (row * self.spec.width + col)[ok]
+        x, y, z = np.asarray(x)[ok], np.asarray(y)[ok], np.asarray(z)[ok]
+        if not idx.size:
+            return
+        self.count += np.bincount(idx, minlength=self.count.size)
+        order = np.lexsort((z, idx))
+        first = np.ones(order.size, bool)
+        first[1:] = idx[order][1:] != idx[order][:-1]
+        sel = order[first]
+        k = idx[sel]
+        better = z[sel] < self.z[k]
+        k, sel = k[better], sel[better]
+        self.z[k], self.x[k], self.y[k] = z[sel], x[sel], y[sel]
+
+    def points(self, min_share: float = 0.25):
+        """``(x, y, z)`` of the lowest point of each cell holding at least ``min_share`` of the
+        median number of points per non-empty cell (cells cut by the data's edge hold a few
+        points that are often not ground)."""
+        m = self.count > 0
+        if m.any():
+            m &= self.count >= min_share * np.median(self.count[m])
+        return self.x[m], self.y[m], self.z[m]

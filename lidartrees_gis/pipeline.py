@@ -15,7 +15,8 @@ import numpy as np
 from . import __version__
 from .crs import crs_label
 from .errors import InputError
-from .grid import GridAccumulator, GridSpec, auto_resolution, check_resolution, fill_gaps, interpolate_tin
+from .grid import (GridAccumulator, GridSpec, LowestPoints, auto_resolution, check_resolution,
+                   fill_gaps, interpolate_tin)
 from .io.points import PointSource, open_points
 from .io.raster import read_raster, write_geotiff
 from .progress import SubProgress, as_progress
@@ -115,8 +116,8 @@ def compute_surfaces(src: PointSource, res, *, dtm="min", fill="mean8", progress
         Cell size in metres.
     dtm : str
         ``min`` lowest point per cell (seed 000's simple method); ``ground`` lowest class-2 point
-        per cell, linearly interpolated (TIN) over the grid; ``lowest:R`` lowest point per R-metre
-        cell, interpolated (TIN); ``none`` heights are already normalised (DTM = 0); ``auto``
+        per cell, linearly interpolated (TIN) over the grid; ``lowest:R`` the lowest point of each R-metre
+        cell, at its own position, interpolated (TIN); ``none`` heights are already normalised (DTM = 0); ``auto``
         ``ground`` when the file has class-2 points, else ``lowest:5``; or a DTM GeoTIFF path,
         resampled bilinearly onto the grid.
     fill : {"mean8", "none"}
@@ -138,7 +139,7 @@ def compute_surfaces(src: PointSource, res, *, dtm="min", fill="mean8", progress
     if method.kind in ("lowest", "auto"):
         size = method.size or 5.0
         b = spec.bounds
-        lacc = GridAccumulator(GridSpec.from_bounds(*b, size, crs=spec.crs), ("min",))
+        lacc = LowestPoints(GridSpec.from_bounds(*b, size, crs=spec.crs))
     n = 0
     for chunk in src.chunks(SubProgress(prog, 0.3, 0.85)):
         n += len(chunk)
@@ -170,10 +171,7 @@ def compute_surfaces(src: PointSource, res, *, dtm="min", fill="mean8", progress
         gx, gy = spec.xy(r, c)
         dtm_arr = interpolate_tin(gx, gy, gmin[r, c], spec)
     elif kind == "lowest":
-        lmin = lacc.result("min")
-        r, c = np.nonzero(~np.isnan(lmin))
-        gx, gy = lacc.spec.xy(r, c)
-        dtm_arr = interpolate_tin(gx, gy, lmin[r, c], spec)
+        dtm_arr = interpolate_tin(*lacc.points(), spec)
     else:  # file
         arr, dspec, _ = read_raster(method.path)
         from .grid import resample_to
@@ -258,3 +256,181 @@ def chm_file(input, output, *, res, dtm="min", fill="mean8", dsm_out=None, dtm_o
     return {"output": str(output), "points": s["points"], "res": s["res"], "shape": s["spec"].shape,
             "crs": crs_label(s["spec"].crs), "dtm": s["dtm_method"], "skipped": src.skipped,
             "reprojection": src.repro.report() if src.repro else None}
+
+
+# ---------------------------------------------------------------------------------------------
+# trees and compare
+RASTER_SUFFIXES = (".tif", ".tiff", ".vrt", ".img")
+
+#: seed 000, Table 1: the ten configurations compared by `lidartrees compare`
+TABLE1 = (
+    ("region growing, no smoothing", "rg", "none"),
+    ("region growing, fine Gaussian", "rg", "gauss3"),
+    ("region growing, coarse Gaussian", "rg", "gauss5"),
+    ("watershed, no smoothing", "watershed", "none"),
+    ("watershed, opening, cross", "watershed", "open:cross"),
+    ("watershed, abefec, cross", "watershed", "abefec:cross"),
+    ("watershed, opening, square", "watershed", "open:square"),
+    ("watershed, abefec, square", "watershed", "abefec:square"),
+    ("watershed, opening, rhombus", "watershed", "open:rhombus"),
+    ("watershed, abefec, rhombus", "watershed", "abefec:rhombus"),
+)
+
+
+def load_chm(input, *, res=None, dtm="auto", fill="mean8", a_srs=None, t_srs=None, progress=None,
+             **read_kw):
+    """A CHM from a GeoTIFF, or built from points (``res`` needed). Returns (chm, spec, source)."""
+    if str(input).lower().endswith(RASTER_SUFFIXES):
+        from .crs import parse_crs
+
+        chm, spec, _ = read_raster(input)
+        if a_srs:
+            spec = spec.with_crs(parse_crs(a_srs))
+        return chm, spec, str(input)
+    if res is None:
+        raise InputError("-tr: a resolution is required when INPUT is a point file")
+    src = open_input(input, a_srs=a_srs, t_srs=t_srs, **read_kw)
+    s = compute_surfaces(src, res, dtm=dtm, fill=fill, progress=progress)
+    return s["chm"], s["spec"], str(input)
+
+
+def trees_frames(result: dict, spec: GridSpec, nln: str = ""):
+    """GeoDataFrames ``tree_tops`` and ``crowns`` (and a ``summary`` DataFrame) of a result of
+    :func:`lidartrees_gis.trees.detect_trees`."""
+    import geopandas as gpd
+    import pandas as pd
+    from shapely.geometry import Point
+
+    from .metrics import crown_polygons
+
+    t = result["table"]
+    n = len(t["tree_id"])
+    cols = ["tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_cells", "method"]
+    attrs = pd.DataFrame({c: t[c] for c in cols})
+    attrs["tree_id"] = attrs["tree_id"].astype("int64")
+    attrs["n_cells"] = attrs["n_cells"].astype("int64")
+    attrs["method"] = attrs["method"].astype(str)
+    crs = spec.crs.to_wkt() if spec.crs is not None else None
+    tops = gpd.GeoDataFrame(attrs.copy(), geometry=[Point(x, y) for x, y in zip(t["x"], t["y"])],
+                            crs=crs)
+    polys = crown_polygons(result["labels"], spec, n)
+    crowns = gpd.GeoDataFrame(attrs.copy(), geometry=polys, crs=crs)
+    chm = result.get("chm")
+    cells = int(np.isfinite(chm).sum()) if chm is not None else spec.width * spec.height
+    area_ha = cells * spec.cell_area / 1e4  # area processed: cells with a canopy height
+    h = t["height"]
+    summary = pd.DataFrame([{
+        "trees": n, "area_ha": area_ha, "trees_per_ha": n / area_ha if area_ha else np.nan,
+        "mean_height": float(np.mean(h)) if n else np.nan,
+        "sd_height": float(np.std(h, ddof=1)) if n > 1 else np.nan,
+        "mean_crown_diameter": float(np.mean(t["crown_diameter"])) if n else np.nan,
+        "method": result["params"].method, "smooth": result["params"].smooth,
+    }])
+    return {f"{nln}tree_tops": tops, f"{nln}crowns": crowns, f"{nln}summary": summary}
+
+
+def write_quicklook(path, chm, labels, rows, cols, *, overwrite=False):
+    """PNG like seed 000's figures: histogram-equalised CHM in grey, crown boundaries, tops."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from skimage.exposure import equalize_hist
+    from skimage.segmentation import find_boundaries
+
+    from .io.output import atomic_output
+
+    a = np.where(np.isnan(chm), np.nanmin(chm) if np.isfinite(chm).any() else 0, chm)
+    g = equalize_hist(a)
+    rgb = np.dstack([g, g, g])
+    rgb[find_boundaries(labels, mode="inner") & (labels > 0)] = (1.0, 0.85, 0.0)
+    h, w = a.shape
+    fig = plt.figure(figsize=(max(4, w / 100), max(4, h / 100)), dpi=100)
+    ax = fig.add_axes([0, 0, 1, 1])
+    ax.imshow(rgb, interpolation="nearest")
+    ax.plot(cols, rows, "r+", ms=4)
+    ax.set_axis_off()
+    with atomic_output(path, overwrite, param="-png") as tmp:
+        fig.savefig(tmp, format="png")
+    plt.close(fig)
+
+
+def trees_file(input, output, *, res=None, params=None, dtm="auto", fill="mean8", nln="",
+               layer_options=None, overwrite=False, append=False, png=None, csv=None,
+               chm_out=None, a_srs=None, t_srs=None, progress=None, **read_kw) -> dict:
+    """Tree tops, crowns and a stand summary from points or a CHM into a GeoPackage."""
+    from .io.output import check_output
+    from .io.vector import write_gpkg
+    from .trees import TreeParams, detect_trees
+
+    p = params or TreeParams()
+    if not (overwrite or append):
+        check_output(output, False)
+    for extra, name in ((png, "-png"), (csv, "-csv"), (chm_out, "-chm_out")):
+        if extra:
+            check_output(extra, overwrite, param=name)
+    prog = as_progress(progress)
+    chm, spec, source = load_chm(input, res=res, dtm=dtm, fill=fill, a_srs=a_srs, t_srs=t_srs,
+                                 progress=SubProgress(prog, 0, 0.5), **read_kw)
+    prog.update(0.5, "detecting trees")
+    result = detect_trees(chm, spec, p)
+    result["chm"] = chm
+    prog.update(0.8, "writing")
+    frames = trees_frames(result, spec, nln)
+    meta = {"lidartrees_version": __version__, "input": source, "res": spec.res,
+            "dtm": dtm, "fill": fill, **p.as_dict()}
+    write_gpkg(output, frames, overwrite=overwrite, append=append, layer_options=layer_options,
+               metadata=meta)
+    t = result["table"]
+    if csv:
+        from .io.output import atomic_output
+
+        with atomic_output(csv, overwrite, param="-csv") as tmp:
+            with open(tmp, "w", encoding="utf-8") as fh:
+                fh.write("id,row,col,x,y,height,crown_area\n")
+                for i in range(len(t["tree_id"])):
+                    fh.write(f"{i + 1},{t['row'][i]},{t['col'][i]},{t['x'][i]:.3f},{t['y'][i]:.3f},"
+                             f"{t['height'][i]:.3f},{t['crown_area'][i]:.4f}\n")
+    if png:
+        write_quicklook(png, result["smoothed"], result["labels"], t["row"], t["col"],
+                        overwrite=overwrite)
+    if chm_out:
+        write_geotiff(chm_out, chm, spec, overwrite=overwrite, description="canopy height (m)")
+    prog.update(1.0, "done")
+    s = frames[f"{nln}summary"].iloc[0].to_dict()
+    return {"output": str(output), "trees": int(s["trees"]), "crs": crs_label(spec.crs),
+            "mean_height": s["mean_height"], "mean_crown_diameter": s["mean_crown_diameter"],
+            "trees_per_ha": s["trees_per_ha"], "result": result, "spec": spec}
+
+
+def compare_file(input, output, *, res=None, dtm="auto", fill="mean8", min_height=2.0, step=0.1,
+                 overwrite=False, a_srs=None, t_srs=None, progress=None, **read_kw) -> dict:
+    """Seed 000's Table 1 on one input: ten configurations -> trees, mean height, mean crown
+    diameter (CSV and a Markdown table)."""
+    from .io.output import atomic_output, check_output
+    from .trees import TreeParams, detect_trees
+
+    check_output(output, overwrite)
+    prog = as_progress(progress)
+    chm, spec, _ = load_chm(input, res=res, dtm=dtm, fill=fill, a_srs=a_srs, t_srs=t_srs,
+                            progress=SubProgress(prog, 0, 0.3), **read_kw)
+    rows = []
+    for i, (label, method, sm) in enumerate(TABLE1):
+        r = detect_trees(chm, spec, TreeParams(method=method, smooth=sm, min_height=min_height,
+                                               step=step))
+        t = r["table"]
+        n = len(t["tree_id"])
+        rows.append({"configuration": label, "method": method, "smooth": sm, "trees": n,
+                     "mean_height": float(np.mean(t["height"])) if n else float("nan"),
+                     "mean_crown_diameter": float(np.mean(t["crown_diameter"])) if n else float("nan")})
+        prog.update(0.3 + 0.7 * (i + 1) / len(TABLE1), label)
+    with atomic_output(output, overwrite) as tmp:
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write("configuration,method,smooth,trees,mean_height,mean_crown_diameter\n")
+            for r in rows:
+                fh.write(f"\"{r['configuration']}\",{r['method']},{r['smooth']},{r['trees']},"
+                         f"{r['mean_height']:.2f},{r['mean_crown_diameter']:.2f}\n")
+    md = ["| method | trees | mean height (m) | mean diameter (m) |", "|---|---|---|---|"]
+    md += [f"| {r['configuration']} | {r['trees']} | {r['mean_height']:.2f} | "
+           f"{r['mean_crown_diameter']:.2f} |" for r in rows]
+    return {"output": str(output), "rows": rows, "table": "\n".join(md)}

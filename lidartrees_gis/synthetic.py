@@ -28,7 +28,7 @@ class StandParams:
     sd_height: float = 1.5
     mean_crown_radius: float = 1.5
     sd_crown_radius: float = 0.15
-    crown_depth: float = 5.0
+    crown_depth: float = 9.0
     missing_fraction: float = 0.03
     density: float = 25.0
     ground_penetration: float = 0.15
@@ -47,9 +47,9 @@ def ground_height(x, y, p: StandParams = StandParams()):
 
 
 def _crown_surface(d, top, radius, depth):
-    """Half-ellipsoid crown: height at horizontal distance ``d`` from the stem (NaN outside)."""
-    q = 1.0 - (d / radius) ** 2
-    return np.where(q >= 0, top - depth * (1.0 - np.sqrt(np.clip(q, 0, None))), np.nan)
+    """Paraboloid crown: height at horizontal distance ``d`` from the stem (NaN outside)."""
+    q = (d / radius) ** 2
+    return np.where(q <= 1.0, top - depth * q, np.nan)
 
 
 def make_stand(params: StandParams | None = None):

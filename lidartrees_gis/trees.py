@@ -1,0 +1,188 @@
+"""Tree detection and crown delineation on a CHM: the methods of seeds 000 and 001 behind one
+call, :func:`detect_trees`. Parameters are in metres / m² and named as on the CLI.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from .detect import local_maxima, treex_maxima, variable_window_maxima
+from .errors import InputError
+from .grid import GridSpec
+from .metrics import tree_table
+from .segment import (keep_top_components, marker_watershed, region_growing, treex_growing,
+                      vincent_soille)
+from .smooth import smooth as smooth_chm
+
+METHODS = ("rg", "treex", "watershed", "mcws")
+TOPS = ("auto", "lm", "treex", "vwf")
+
+
+@dataclass(frozen=True)
+class TreeParams:
+    """Parameters of tree detection (defaults: the seeds').
+
+    Attributes
+    ----------
+    method : {"rg", "treex", "watershed", "mcws"}
+        rg = Hyyppä/Castro region growing (seed 000 Annex 2); treex = TreeX priority growing
+        (seed 001); watershed = Vincent–Soille on the inverted CHM (seed 000 Annex 1); mcws =
+        marker-controlled watershed from the tops.
+    smooth : str
+        CHM filter (see :func:`lidartrees_gis.smooth.smooth`), e.g. gauss3, abefec:rhombus.
+    min_height : float
+        Minimum tree height, m (2 m, seed 000).
+    step : float
+        Region-growing threshold step ``ajuste``, m (0.1, seed 000 Annex 2).
+    tops : {"auto", "lm", "treex", "vwf"}
+        Tree-top finder for rg/mcws/treex: lm = 8-neighbour local maxima (seed 000), treex =
+        TreeX moving window (seed 001), vwf = height-dependent window; auto = treex for the treex
+        method, lm otherwise.
+    mean_crown_area, sd_crown_area : float
+        TreeX window parameters, m² (field data; defaults for 3 x 2 m clonal eucalyptus).
+    max_crown_area : float
+        TreeX maximum crown area, m².
+    min_crown_height : float
+        TreeX minimum crown height, m.
+    connectivity : {4, 8}
+        TreeX growth neighbourhood.
+    """
+
+    method: str = "rg"
+    smooth: str = "none"
+    min_height: float = 2.0
+    step: float = 0.1
+    tops: str = "auto"
+    mean_crown_area: float = 6.0
+    sd_crown_area: float = 2.0
+    max_crown_area: float = 16.0
+    min_crown_height: float = 2.0
+    connectivity: int = 4
+
+    def __post_init__(self):
+        if self.method not in METHODS:
+            raise InputError(f"-method: unknown method {self.method!r}; use {', '.join(METHODS)}")
+        if self.tops not in TOPS:
+            raise InputError(f"-tops: unknown tree-top finder {self.tops!r}; use {', '.join(TOPS)}")
+        if not np.isfinite(self.min_height):
+            raise InputError("-min_height must be a number")
+        if self.connectivity not in (4, 8):
+            raise InputError(f"-connectivity must be 4 or 8, got {self.connectivity}")
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+def find_tops(chm_s, res, p: TreeParams):
+    """Tree tops on the smoothed CHM by ``p.tops``."""
+    which = p.tops if p.tops != "auto" else ("treex" if p.method == "treex" else "lm")
+    if which == "treex":
+        return treex_maxima(chm_s, res, mean_crown_area=p.mean_crown_area,
+                            sd_crown_area=p.sd_crown_area, min_height=p.min_height)
+    if which == "vwf":
+        return variable_window_maxima(chm_s, res, min_height=p.min_height)
+    return local_maxima(chm_s, min_height=p.min_height)
+
+
+def _watershed_tops(labels, chm_s, min_height):
+    """Basins of the Vincent–Soille watershed to (labels 1..n, top rows, top cols): the top of a
+    basin is its highest cell (first in row order on ties); basins lower than ``min_height`` and
+    cells below it are dropped."""
+    a = np.where(np.isnan(chm_s), -np.inf, chm_s)
+    lab = np.where(a >= min_height, labels, 0)
+    n = int(labels.max())
+    if n == 0:
+        return lab, np.empty(0, np.int64), np.empty(0, np.int64)
+    flat = lab.ravel()
+    idx = np.nonzero(flat)[0]
+    # highest cell per basin: sort by (label, -height, index)
+    o = np.lexsort((idx, -a.ravel()[idx], flat[idx]))
+    sel = idx[o]
+    first = np.ones(sel.size, bool)
+    first[1:] = flat[sel][1:] != flat[sel][:-1]
+    tops = sel[first]
+    tops = np.sort(tops)
+    rows, cols = np.divmod(tops, lab.shape[1])
+    remap = np.zeros(n + 1, np.int64)
+    remap[flat[tops]] = np.arange(1, tops.size + 1)
+    return remap[lab], rows.astype(np.int64), cols.astype(np.int64)
+
+
+def detect_trees(chm, spec: GridSpec, params: TreeParams | None = None) -> dict:
+    """Tree tops, crowns and per-tree measures on a CHM.
+
+    Parameters
+    ----------
+    chm : (M, N) ndarray of float
+        Canopy heights (m); NaN = nodata.
+    spec : GridSpec
+        Georeferencing of ``chm``.
+    params : TreeParams
+
+    Returns
+    -------
+    dict with ``table`` (per-tree arrays, see :func:`lidartrees_gis.metrics.tree_table`),
+    ``labels`` (crown label grid, crown ``i + 1`` belongs to row ``i`` of the table),
+    ``smoothed`` (the filtered CHM) and ``params``.
+    Every crown holds exactly its own top; heights come from the unsmoothed ``chm``.
+    """
+    p = params or TreeParams()
+    chm = np.asarray(chm, dtype=np.float64)
+    chm_s = smooth_chm(chm, p.smooth, res=spec.res)
+    if p.method == "watershed":
+        labels, rows, cols = _watershed_tops(vincent_soille(chm_s), chm_s, p.min_height)
+    else:
+        rows, cols = find_tops(chm_s, spec.res, p)
+        if p.method == "rg":
+            labels = region_growing(chm_s, rows, cols, step=p.step, min_height=p.min_height)
+        elif p.method == "treex":
+            labels = treex_growing(chm_s, rows, cols, spec.res, max_crown_area=p.max_crown_area,
+                                   min_crown_height=p.min_crown_height, connectivity=p.connectivity)
+        else:
+            labels = marker_watershed(chm_s, rows, cols, min_height=p.min_height)
+    labels = keep_top_components(labels, rows, cols)
+    table = tree_table(labels, rows, cols, chm, spec)
+    table["method"] = np.array([p.method] * len(rows), dtype=object)
+    return {"table": table, "labels": labels, "smoothed": chm_s, "params": p}
+
+
+def match_trees(det_x, det_y, ref_x, ref_y, max_dist: float = 1.0):
+    """One-to-one matching of detected and reference trees (closest pairs first, within
+    ``max_dist`` m). Returns ``(det_index, ref_index)`` arrays of matched pairs."""
+    from scipy.spatial import cKDTree
+
+    if len(det_x) == 0 or len(ref_x) == 0:
+        return np.empty(0, np.int64), np.empty(0, np.int64)
+    tree = cKDTree(np.c_[ref_x, ref_y])
+    pairs = tree.sparse_distance_matrix(cKDTree(np.c_[det_x, det_y]), max_dist, output_type="ndarray")
+    order = np.argsort(pairs["v"], kind="stable")
+    used_r, used_d, md, mr = set(), set(), [], []
+    for k in order:
+        r, d = int(pairs["i"][k]), int(pairs["j"][k])
+        if r in used_r or d in used_d:
+            continue
+        used_r.add(r)
+        used_d.add(d)
+        md.append(d)
+        mr.append(r)
+    return np.asarray(md, np.int64), np.asarray(mr, np.int64)
+
+
+def accuracy(table: dict, truth: dict, max_dist: float = 1.0) -> dict:
+    """Detection accuracy against known trees: matches, omission, commission, F-score, RMSE of
+    height and of crown diameter (against ``visible_crown_diameter`` when given)."""
+    d, r = match_trees(table["x"], table["y"], truth["x"], truth["y"], max_dist)
+    n_det, n_ref, m = len(table["x"]), len(truth["x"]), len(d)
+    prec = m / n_det if n_det else 0.0
+    rec = m / n_ref if n_ref else 0.0
+    out = {"detected": n_det, "reference": n_ref, "matched": m,
+           "omission": 1 - rec, "commission": 1 - prec,
+           "f_score": 2 * prec * rec / (prec + rec) if prec + rec else 0.0}
+    if m:
+        out["height_rmse"] = float(np.sqrt(np.mean((table["height"][d] - truth["height"][r]) ** 2)))
+        key = "visible_crown_diameter" if "visible_crown_diameter" in truth else "crown_diameter"
+        if key in truth:
+            out["crown_diameter_rmse"] = float(np.sqrt(np.mean(
+                (table["crown_diameter"][d] - truth[key][r]) ** 2)))
+    return out

@@ -1,0 +1,136 @@
+import numpy as np
+import pytest
+
+from lidartrees_gis.detect import local_maxima, treex_maxima, variable_window_maxima
+from lidartrees_gis.grid import GridSpec
+from lidartrees_gis.segment import (marker_watershed, rank_levels, region_growing, treex_growing,
+                                    vincent_soille)
+from lidartrees_gis.trees import TreeParams, accuracy, detect_trees
+
+
+def paraboloids(shape, tops, radius=6.0):
+    """CHM of paraboloid crowns: tops = [(row, col, height)], crown radius in cells."""
+    yy, xx = np.mgrid[0:shape[0], 0:shape[1]]
+    chm = np.zeros(shape)
+    owner = np.zeros(shape, int)
+    for k, (r, c, h) in enumerate(tops, 1):
+        z = h - h * ((yy - r) ** 2 + (xx - c) ** 2) / radius ** 2 * 0.5
+        better = z > chm
+        chm[better] = z[better]
+        owner[better] = k
+    return chm, owner
+
+
+TOPS = [(10, 10, 20.0), (10, 25, 18.0), (24, 12, 22.0), (25, 27, 15.0)]
+
+
+def test_local_maxima_exact_tops():
+    chm, _ = paraboloids((36, 38), TOPS)
+    r, c = local_maxima(chm, min_height=2)
+    assert sorted(zip(r.tolist(), c.tolist())) == sorted((t[0], t[1]) for t in TOPS)
+
+
+def test_min_height_discards_low_tops():
+    chm, _ = paraboloids((36, 38), TOPS)
+    r, _ = local_maxima(chm, min_height=16)
+    assert len(r) == 3
+
+
+def test_flat_top_yields_single_treetop():
+    chm = np.zeros((7, 8))
+    chm[2:4, 2:6] = 10.0  # a 2 x 4 plateau
+    r, c = local_maxima(chm)
+    assert (r.tolist(), c.tolist()) == ([2], [3])  # nearest to centroid (2.5, 3.5), then row, col
+
+
+def test_regions_hold_their_tops_and_follow_the_crowns():
+    chm, owner = paraboloids((36, 38), TOPS)
+    r, c = local_maxima(chm)
+    for labels in (region_growing(chm, r, c, step=0.1, min_height=2),
+                   treex_growing(chm, r, c, 1.0, max_crown_area=1000, min_crown_height=2),
+                   marker_watershed(chm, r, c, min_height=2)):
+        assert labels[r, c].tolist() == list(range(1, len(r) + 1))
+        inside = (labels > 0) & (chm > 4)
+        # crown membership equals the paraboloid that owns the cell (up to boundary cells)
+        mapping = {i + 1: owner[r[i], c[i]] for i in range(len(r))}
+        agree = np.mean([mapping[v] == o for v, o in zip(labels[inside], owner[inside])])
+        assert agree > 0.97
+
+
+def test_region_growing_step_and_floor():
+    chm, _ = paraboloids((36, 38), TOPS)
+    r, c = local_maxima(chm)
+    lab = region_growing(chm, r, c, step=0.1, min_height=5)
+    assert np.all(chm[lab > 0] > 5)
+    assert lab.max() == len(r)
+
+
+def test_treex_max_crown_area_in_cells():
+    chm, _ = paraboloids((36, 38), TOPS)
+    r, c = local_maxima(chm)
+    lab = treex_growing(chm, r, c, 0.5, max_crown_area=10.0)  # 10 m2 = 40 cells of 0.25 m2
+    assert np.bincount(lab.ravel())[1:].max() == 40
+
+
+def test_treex_window_finds_tops():
+    chm, _ = paraboloids((36, 38), TOPS)
+    r, c = treex_maxima(chm, 1.0, mean_crown_area=25.0, sd_crown_area=4.0)
+    assert sorted(zip(r.tolist(), c.tolist())) == sorted((t[0], t[1]) for t in TOPS)
+    r2, _ = variable_window_maxima(chm, 1.0)
+    assert len(r2) == 4
+
+
+def test_two_basin_watershed_with_line_matches_skimage():
+    from skimage.segmentation import watershed
+
+    chm, _ = paraboloids((20, 30), [(10, 8, 10.0), (10, 21, 12.0)])
+    vs = vincent_soille(chm)
+    assert set(np.unique(vs)) == {0, 1, 2}
+    line = vs == 0
+    assert line.any() and np.all(np.abs(np.nonzero(line)[1] - 14.5) <= 2)
+    levels, _ = rank_levels(chm)
+    sk = watershed(levels, connectivity=2, watershed_line=True)
+    assert sk.max() == vs.max() == 2
+    both = (vs > 0) & (sk > 0)
+    # same partition up to label names, and nearly the same line
+    pairs = set(zip(vs[both].tolist(), sk[both].tolist()))
+    assert len(pairs) == 2
+    assert abs(int((sk == 0).sum()) - int(line.sum())) <= 10
+
+
+def test_rank_levels_inverts_heights():
+    lv, valid = rank_levels(np.array([[3.0, 5.0], [5.0, np.nan]]))
+    assert lv.tolist() == [[2, 1], [1, 3]] and valid.tolist() == [[True, True], [True, False]]
+
+
+@pytest.mark.parametrize("method", ["rg", "treex", "watershed", "mcws"])
+def test_every_crown_holds_exactly_its_top(method):
+    chm, _ = paraboloids((36, 38), TOPS)
+    spec = GridSpec(0.0, 36.0, 1.0, 38, 36)
+    res = detect_trees(chm, spec, TreeParams(method=method, mean_crown_area=25, sd_crown_area=4,
+                                             max_crown_area=500))
+    t, lab = res["table"], res["labels"]
+    assert len(t["tree_id"]) == 4 and len(set(t["tree_id"].tolist())) == 4
+    assert lab[t["row"], t["col"]].tolist() == [1, 2, 3, 4]
+    np.testing.assert_allclose(t["crown_diameter"], np.sqrt(4 * t["crown_area"] / np.pi))
+    for i in range(4):
+        assert t["height"][i] == pytest.approx(chm[lab == i + 1].max())
+
+
+def test_synthetic_stand_default_method_meets_targets(stand):
+    from lidartrees_gis.pipeline import compute_surfaces, open_input
+    from lidartrees_gis.synthetic import write_xyz_seed_dialect
+
+    pts, truth = stand
+    import tempfile
+    from pathlib import Path
+
+    with tempfile.TemporaryDirectory() as d:
+        p = Path(d) / "s.xyz"
+        write_xyz_seed_dialect(p, pts)
+        s = compute_surfaces(open_input(p, a_srs="EPSG:29194"), 0.5, dtm="auto")
+    res = detect_trees(s["chm"], s["spec"], TreeParams())
+    a = accuracy(res["table"], truth, max_dist=1.0)
+    assert a["f_score"] >= 0.95
+    assert a["height_rmse"] <= 0.3
+    assert a["crown_diameter_rmse"] <= 0.5

@@ -1,0 +1,102 @@
+import csv
+
+import geopandas as gpd
+import numpy as np
+import pyogrio
+import pytest
+import rasterio
+from rasterio.features import geometry_mask
+
+from lidartrees_gis.cli import main
+
+pytestmark = pytest.mark.realdata
+FIELDS = ["tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_cells", "method"]
+
+
+@pytest.fixture(scope="module")
+def mixed(tmp_path_factory):
+    from conftest import data_file
+
+    f = data_file("lidR_extdata/MixedConifer.laz")
+    d = tmp_path_factory.mktemp("mc")
+    out, chm = d / "out.gpkg", d / "chm.tif"
+    rc = main(["trees", str(f), str(out), "-tr", "0.5", "-method", "watershed", "-smooth",
+               "abefec:rhombus", "-chm_out", str(chm), "-png", str(d / "q.png"), "-q"])
+    assert rc == 0
+    return f, out, chm, d
+
+
+def test_mixedconifer_acceptance(mixed):
+    f, out, chm, d = mixed
+    tops = gpd.read_file(out, layer="tree_tops")
+    crowns = gpd.read_file(out, layer="crowns")
+    assert tops.crs.to_epsg() == 26912 and crowns.crs.to_epsg() == 26912
+    assert list(tops.columns[:-1]) == FIELDS and list(crowns.columns[:-1]) == FIELDS
+    assert set(tops.tree_id) == set(crowns.tree_id) and tops.tree_id.is_unique
+    assert len(tops) > 50
+    assert crowns.is_valid.all() and (crowns.geom_type == "Polygon").all()
+    m = crowns.merge(tops[["tree_id", "geometry"]], on="tree_id", suffixes=("", "_top"))
+    assert all(c.contains(t) for c, t in zip(m.geometry, m.geometry_top))
+    np.testing.assert_allclose(crowns.crown_diameter, np.sqrt(4 * crowns.crown_area / np.pi), atol=1e-6)
+    np.testing.assert_allclose(crowns.crown_area, crowns.geometry.area, rtol=1e-9)
+    with rasterio.open(chm) as ds:
+        a = ds.read(1, masked=True).filled(np.nan)
+        for _, row in crowns.sample(25, random_state=0).iterrows():
+            inside = ~geometry_mask([row.geometry], a.shape, ds.transform)
+            assert row.height == pytest.approx(np.nanmax(a[inside]), abs=1e-4)
+    summ = pyogrio.read_dataframe(out, layer="summary")
+    assert int(summ.trees[0]) == len(tops)
+    assert (d / "q.png").stat().st_size > 1000
+
+
+def test_existing_gpkg_refused_then_append_and_nln(mixed, tmp_path):
+    f, out, _, _ = mixed
+    n = len(gpd.read_file(out, layer="tree_tops"))
+    assert main(["trees", str(f), str(out), "-tr", "0.5", "-q"]) == 1
+    assert len(gpd.read_file(out, layer="tree_tops")) == n
+    o2 = tmp_path / "two.gpkg"
+    assert main(["trees", str(f), str(o2), "-tr", "0.5", "-smooth", "gauss5", "-q"]) == 0
+    assert main(["trees", str(f), str(o2), "-tr", "0.5", "-smooth", "gauss5", "-q", "-append",
+                 "-nln", "b_"]) == 0
+    layers = {name for name, _ in pyogrio.list_layers(o2)}
+    assert {"tree_tops", "crowns", "summary", "b_tree_tops", "b_crowns", "b_summary"} <= layers
+
+
+def test_mixedconifer_count_agrees_with_lidr_segmentation(tmp_path, data):
+    # MixedConifer's treeID holds 205 trees (lidR's segmentation): agreement within +-20 %
+    out = tmp_path / "t.gpkg"
+    assert main(["trees", str(data("lidR_extdata/MixedConifer.laz")), str(out), "-tr", "0.5",
+                 "-smooth", "gauss5", "-q"]) == 0
+    n = len(gpd.read_file(out, layer="tree_tops"))
+    assert 0.8 * 205 <= n <= 1.2 * 205
+
+
+def test_compare_ten_rows_and_table1_ordering(tmp_path, data):
+    out = tmp_path / "cmp.csv"
+    assert main(["compare", str(data("lidR_extdata/MixedConifer.laz")), str(out), "-tr", "0.5",
+                 "-q"]) == 0
+    rows = list(csv.DictReader(open(out)))
+    assert len(rows) == 10
+    rg = [r for r in rows if r["method"] == "rg"]
+    n = [int(r["trees"]) for r in rg]
+    d = [float(r["mean_crown_diameter"]) for r in rg]
+    assert n[0] >= n[1] >= n[2] and d[0] <= d[1] <= d[2]
+    ws = {r["smooth"]: int(r["trees"]) for r in rows if r["method"] == "watershed"}
+    for el in ("cross", "square", "rhombus"):  # Table 1: abefec smooths more than opening
+        assert ws["none"] > ws[f"open:{el}"] >= ws[f"abefec:{el}"]
+    for op in ("open", "abefec"):  # and cross < square < rhombus in strength
+        assert ws[f"{op}:cross"] >= ws[f"{op}:square"] >= ws[f"{op}:rhombus"]
+
+
+def test_trees_from_chm_geotiff_and_treex_csv(tmp_path, data):
+    f = data("pycrown_example/CHM.tif")
+    out = tmp_path / "t.gpkg"
+    c = tmp_path / "t.csv"
+    assert main(["trees", str(f), str(out), "-method", "treex", "-smooth", "gauss3",
+                 "-mean_crown_area", "20", "-sd_crown_area", "5", "-max_crown_area", "80",
+                 "-csv", str(c), "-q"]) == 0
+    tops = gpd.read_file(out, layer="tree_tops")
+    assert tops.crs.to_epsg() == 2193 and len(tops) > 20
+    rows = list(csv.DictReader(open(c)))
+    assert list(rows[0]) == ["id", "row", "col", "x", "y", "height", "crown_area"]
+    assert len(rows) == len(tops)
