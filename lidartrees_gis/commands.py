@@ -12,7 +12,6 @@ from typing import Callable
 from . import pipeline
 
 # kinds: input (point file / raster), output (file), outdir, float, int, str, choice, bool, crs, kv
-READ_PARAMS = ()
 
 
 @dataclass(frozen=True)
@@ -73,6 +72,8 @@ CO = Param("creation_options", "kv", "GDAL creation option KEY=VALUE for GeoTIFF
 OVERWRITE = Param("overwrite", "bool", "Replace existing outputs", flag="-overwrite",
                   aliases=("--overwrite",), default=False)
 READ = (A_SRS, T_SRS, DELIM, DECIMAL_COMMA, COLUMNS, SKIP_INVALID)
+CHM_RES = Param("res", "res", "Cell size of the CHM built from points, m, or auto", flag="-tr",
+                aliases=("--resolution",), unit="m")
 
 
 def _info(input, **kw):
@@ -175,8 +176,7 @@ COMMANDS = {
         "trees", "Trees", "Tree tops, crowns and a stand summary (GeoPackage) from points or a CHM",
         (Param("input", "input", "Point file (LAS/LAZ, XYZ) or a CHM GeoTIFF"),
          Param("output", "output", "Output GeoPackage (.gpkg)"),
-         Param("res", "res", "Cell size of the CHM built from points, m, or auto", flag="-tr",
-               aliases=("--resolution",), unit="m"),
+         CHM_RES,
          Param("method", "choice", "Crowns: rg = region growing (Castro 2006 / Hyyppä 2001, seed "
                "000); treex = TreeX priority growing (seed 001); watershed = Vincent-Soille on the "
                "inverted CHM (seed 000); mcws = marker-controlled watershed from the tops",
@@ -222,8 +222,7 @@ COMMANDS = {
         "compare", "Trees", "Seed 000 Table 1: ten smoothing/segmentation configurations compared",
         (Param("input", "input", "Point file (LAS/LAZ, XYZ) or a CHM GeoTIFF"),
          Param("output", "output", "Output CSV"),
-         Param("res", "res", "Cell size of the CHM built from points, m, or auto", flag="-tr",
-               aliases=("--resolution",), unit="m"),
+         CHM_RES,
          Param("min_height", "float", "Minimum tree height", flag="-min_height", default=2.0,
                unit="m"),
          Param("step", "float", "Region-growing threshold step", flag="-step", default=0.1,

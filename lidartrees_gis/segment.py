@@ -19,6 +19,12 @@ def _jit(fn):
     return numba.njit(cache=True)(fn) if HAVE_NUMBA else fn
 
 
+def _prepare(chm, rows, cols):
+    """CHM with NaN as -inf, an empty label grid, and the seed cells as int64 arrays."""
+    a = np.where(np.isnan(chm), -np.inf, np.asarray(chm, dtype=np.float64))
+    return a, np.zeros(a.shape, np.int64), np.asarray(rows, np.int64), np.asarray(cols, np.int64)
+
+
 # ---------------------------------------------------------------------------------------------
 # Seed 000, Annex 2: region growing after Hyyppä et al. (2001)
 def _rg_kernel(chm, seeds_r, seeds_c, hmax, hmin, step, labels):
@@ -103,10 +109,7 @@ def region_growing(chm, rows, cols, *, step: float = 0.1, min_height: float = 2.
     """
     if not step > 0:
         raise InputError(f"-step must be > 0, got {step}")
-    a = np.where(np.isnan(chm), -np.inf, np.asarray(chm, dtype=np.float64))
-    labels = np.zeros(a.shape, np.int64)
-    rows = np.asarray(rows, np.int64)
-    cols = np.asarray(cols, np.int64)
+    a, labels, rows, cols = _prepare(chm, rows, cols)
     if rows.size == 0:
         return labels
     hmax = float(np.max(a[np.isfinite(a)]))
@@ -177,10 +180,7 @@ def treex_growing(chm, rows, cols, res: float, *, max_crown_area: float = 15.0,
         raise InputError(f"-connectivity must be 4 or 8, got {connectivity}")
     if not max_crown_area > 0:
         raise InputError(f"-max_crown_area must be > 0 m², got {max_crown_area}")
-    a = np.where(np.isnan(chm), -np.inf, np.asarray(chm, dtype=np.float64))
-    labels = np.zeros(a.shape, np.int64)
-    rows = np.asarray(rows, np.int64)
-    cols = np.asarray(cols, np.int64)
+    a, labels, rows, cols = _prepare(chm, rows, cols)
     if rows.size == 0:
         return labels
     max_cells = max(1, int(round(max_crown_area / (res * res))))
