@@ -341,14 +341,17 @@ def write_quicklook(path, chm, labels, rows, cols, *, overwrite=False):
     from .io.output import atomic_output
 
     a = np.where(np.isnan(chm), np.nanmin(chm) if np.isfinite(chm).any() else 0, chm)
-    g = equalize_hist(a)
-    rgb = np.dstack([g, g, g])
-    rgb[find_boundaries(labels, mode="inner") & (labels > 0)] = (1.0, 0.85, 0.0)
     h, w = a.shape
-    fig = plt.figure(figsize=(max(4, w / 100), max(4, h / 100)), dpi=100)
+    k = max(1, int(np.ceil(800 / max(h, w))))  # upsample small grids so outlines stay thin
+    g = np.kron(equalize_hist(a), np.ones((k, k)))
+    lab_up = np.kron(labels, np.ones((k, k), dtype=labels.dtype))
+    rgb = np.dstack([g, g, g])
+    rgb[find_boundaries(lab_up, mode="inner") & (lab_up > 0)] = (1.0, 0.85, 0.0)
+    H, W = g.shape
+    fig = plt.figure(figsize=(W / 100, H / 100), dpi=100)
     ax = fig.add_axes([0, 0, 1, 1])
     ax.imshow(rgb, interpolation="nearest")
-    ax.plot(cols, rows, "r+", ms=4)
+    ax.plot((np.asarray(cols) + 0.5) * k - 0.5, (np.asarray(rows) + 0.5) * k - 0.5, "r+", ms=5)
     ax.set_axis_off()
     with atomic_output(path, overwrite, param="-png") as tmp:
         fig.savefig(tmp, format="png")
