@@ -63,11 +63,10 @@ def neon_boxes() -> dict:
     if not boxes_f.exists():
         return {}
     rows = list(csv.DictReader(open(boxes_f)))
-    plots = sorted({r[k] for r in rows for k in r if k.lower() in ("plot", "image_path", "file")})
     res = {}
     total = one = 0
     for laz in sorted((DATA / "neon_teak_dev").glob("TEAK_*.laz")):
-        b = [r for r in rows if any(laz.stem in str(v) for v in r.values())]
+        b = [r for r in rows if r["plot_id"] == laz.stem]
         if not b:
             continue
         s = compute_surfaces(open_input(laz, a_srs="EPSG:32611"), 0.5, dtm="ground")
@@ -82,7 +81,6 @@ def neon_boxes() -> dict:
         total += len(b)
         one += k
     res["all"] = {"boxes": total, "exactly_one_top": one, "share": one / total if total else None}
-    _ = plots
     return res
 
 

@@ -262,20 +262,21 @@ def fill_gaps(grid: np.ndarray, method: str = "mean8", progress=None) -> np.ndar
     raise InputError(f"-fill: unknown method {method!r}; use mean8 or none")
 
 
-def resample_to(src_array, src_transform, src_crs, spec: GridSpec, nodata=None) -> np.ndarray:
-    """Bilinear resampling of a raster onto ``spec`` (e.g. an external DTM)."""
-    from rasterio.crs import CRS as RioCRS
+def resample_to(src_array, src_spec: GridSpec, spec: GridSpec) -> np.ndarray:
+    """Bilinear resampling of a raster (NaN = nodata) onto ``spec`` (e.g. an external DTM).
+
+    A source without a CRS is taken to be in ``spec``'s CRS.
+    """
     from rasterio.warp import Resampling, reproject
 
+    from .io.raster import rio_crs
+
     dst = np.full(spec.shape, np.nan, dtype=np.float64)
-    src = np.asarray(src_array, dtype=np.float64)
-    if nodata is not None:
-        src = np.where(src == nodata, np.nan, src)
-    dcrs = RioCRS.from_wkt(spec.crs.to_wkt()) if spec.crs is not None else None
-    scrs = src_crs if src_crs is not None else dcrs
-    reproject(src, dst, src_transform=src_transform, src_crs=scrs, dst_transform=spec.transform,
-              dst_crs=dcrs or scrs, resampling=Resampling.bilinear, src_nodata=np.nan,
-              dst_nodata=np.nan)
+    dcrs = rio_crs(spec.crs)
+    scrs = rio_crs(src_spec.crs) or dcrs
+    reproject(np.asarray(src_array, dtype=np.float64), dst, src_transform=src_spec.transform,
+              src_crs=scrs, dst_transform=spec.transform, dst_crs=dcrs or scrs,
+              resampling=Resampling.bilinear, src_nodata=np.nan, dst_nodata=np.nan)
     return dst
 
 

@@ -16,7 +16,7 @@ from . import __version__
 from .crs import crs_label
 from .errors import InputError
 from .grid import (GridAccumulator, GridSpec, LowestPoints, auto_resolution, check_resolution,
-                   fill_gaps, interpolate_tin)
+                   fill_gaps, interpolate_tin, resample_to)
 from .io.points import PointSource, open_points
 from .io.raster import read_raster, write_geotiff
 from .progress import SubProgress, as_progress
@@ -174,10 +174,7 @@ def compute_surfaces(src: PointSource, res, *, dtm="min", fill="mean8", progress
         dtm_arr = interpolate_tin(*lacc.points(), spec)
     else:  # file
         arr, dspec, _ = read_raster(method.path)
-        from .grid import resample_to
-        from .io.raster import _rio_crs
-
-        dtm_arr = resample_to(arr, dspec.transform, _rio_crs(dspec.crs or spec.crs), spec)
+        dtm_arr = resample_to(arr, dspec, spec)
     prog.update(0.95, "canopy height")
     chm = dsm - dtm_arr
     return {"dsm": dsm, "dtm": dtm_arr, "chm": chm, "spec": spec, "res": res, "dtm_method": kind if method.kind != "file" else method.path,

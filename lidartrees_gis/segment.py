@@ -190,6 +190,15 @@ def treex_growing(chm, rows, cols, res: float, *, max_crown_area: float = 15.0,
 
 # ---------------------------------------------------------------------------------------------
 # Seed 000, Annex 1: Vincent & Soille (1991) immersion watershed
+def _fifo_push_py(fifo, tail, cap, value):
+    """Put ``value`` at the end of the circular FIFO; returns the new tail."""
+    fifo[tail] = value
+    return (tail + 1) % cap
+
+
+_fifo_push = _jit(_fifo_push_py)
+
+
 def _vs_kernel(levels, valid):
     MASK, WSHED, INIT = -2, 0, -1
     H, W = levels.shape
@@ -231,13 +240,11 @@ def _vs_kernel(levels, valid):
                     q = rr * W + cc
                     if lab[q] > 0 or lab[q] == WSHED:
                         dist[p] = 1
-                        fifo[tail] = p
-                        tail = (tail + 1) % cap
+                        tail = _fifo_push(fifo, tail, cap, p)
                         count += 1
                         break
         curdist = 1
-        fifo[tail] = FICT
-        tail = (tail + 1) % cap
+        tail = _fifo_push(fifo, tail, cap, FICT)
         count += 1
         while True:
             p = fifo[head]
@@ -246,8 +253,7 @@ def _vs_kernel(levels, valid):
             if p == FICT:
                 if count == 0:
                     break
-                fifo[tail] = FICT
-                tail = (tail + 1) % cap
+                tail = _fifo_push(fifo, tail, cap, FICT)
                 count += 1
                 curdist += 1
                 p = fifo[head]
@@ -271,16 +277,14 @@ def _vs_kernel(levels, valid):
                         lab[p] = WSHED
                 elif lab[q] == MASK and dist[q] == 0:
                     dist[q] = curdist + 1
-                    fifo[tail] = q
-                    tail = (tail + 1) % cap
+                    tail = _fifo_push(fifo, tail, cap, q)
                     count += 1
         for t in range(i, j):
             p = order[t]
             dist[p] = 0
             if lab[p] == MASK:
                 current += 1
-                fifo[tail] = p
-                tail = (tail + 1) % cap
+                tail = _fifo_push(fifo, tail, cap, p)
                 count += 1
                 lab[p] = current
                 while count > 0:
@@ -295,8 +299,7 @@ def _vs_kernel(levels, valid):
                         if 0 <= rr < H and 0 <= cc < W:
                             s = rr * W + cc
                             if lab[s] == MASK:
-                                fifo[tail] = s
-                                tail = (tail + 1) % cap
+                                tail = _fifo_push(fifo, tail, cap, s)
                                 count += 1
                                 lab[s] = current
         i = j

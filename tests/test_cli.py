@@ -110,3 +110,13 @@ def test_one_point_and_coincident_points(tmp_path):
     q.write_text("1 1 1\n1 1 2\n")
     assert main(["grid", str(q), str(tmp_path / "s.tif"), "-tr", "auto", "-q"]) == 1
     assert not (tmp_path / "s.tif").exists()
+
+
+def test_external_dtm_geotiff_on_same_grid_gives_same_chm(tmp_path, seed_xyz):
+    a, dtm, b = tmp_path / "a.tif", tmp_path / "dtm.tif", tmp_path / "b.tif"
+    common = ["-tr", "1", "-a_srs", "EPSG:29194", "-q"]
+    assert main(["chm", str(seed_xyz), str(a), "-dtm", "lowest:5", "-dtm_out", str(dtm), *common]) == 0
+    assert main(["chm", str(seed_xyz), str(b), "-dtm", str(dtm), *common]) == 0
+    with rasterio.open(a) as da, rasterio.open(b) as db:
+        np.testing.assert_allclose(db.read(1), da.read(1), atol=1e-3)
+    assert main(["chm", str(seed_xyz), str(tmp_path / "c.tif"), "-dtm", "nope.tif", *common]) == 1

@@ -25,7 +25,8 @@ def parse_kv(items, param="-co") -> dict:
     return out
 
 
-def _rio_crs(crs):
+def rio_crs(crs):
+    """A rasterio CRS from a pyproj CRS (None stays None)."""
     from rasterio.crs import CRS
 
     if crs is None:
@@ -69,7 +70,7 @@ def write_geotiff(path, array, spec, *, overwrite=False, nodata=NODATA, dtype="f
             co["PREDICTOR"] = "2"
     with atomic_output(path, overwrite) as tmp:
         with rasterio.open(tmp, "w", driver="GTiff", width=spec.width, height=spec.height, count=1,
-                           dtype=dtype, crs=_rio_crs(spec.crs), transform=spec.transform,
+                           dtype=dtype, crs=rio_crs(spec.crs), transform=spec.transform,
                            nodata=nodata, **co) as ds:
             ds.write(out, 1)
             t = {"LIDARTREES_VERSION": __version__}
