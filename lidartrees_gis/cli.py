@@ -12,7 +12,7 @@ import sys
 from . import __version__
 from .commands import COMMANDS
 from .errors import Cancelled, LidarTreesError
-from .progress import NullProgress, TqdmProgress
+from .progress import LineProgress, NullProgress, TqdmProgress
 
 
 def _add_param(sp, p):
@@ -47,6 +47,9 @@ def build_parser() -> argparse.ArgumentParser:
         for p in cmd.params:
             _add_param(sp, p)
         sp.add_argument("-q", "--quiet", action="store_true", help="No progress bar or summary")
+        # for programs driving the CLI (the QGIS provider): progress lines and a result file
+        sp.add_argument("--progress-lines", action="store_true", help=argparse.SUPPRESS)
+        sp.add_argument("--result-json", metavar="FILE", help=argparse.SUPPRESS)
     return ap
 
 
@@ -78,7 +81,11 @@ def main(argv=None) -> int:
     cmd = COMMANDS[args.command]
     kw = {p.name: getattr(args, p.name) for p in cmd.params}
     as_json = bool(kw.pop("json", False))
-    progress = NullProgress() if args.quiet else TqdmProgress(desc=cmd.name)
+    if args.progress_lines:
+        progress = LineProgress()
+    else:
+        progress = NullProgress() if args.quiet else TqdmProgress(desc=cmd.name)
+    _terminate_as_interrupt()
     try:
         res = cmd.run(**kw, progress=progress)
     except Cancelled:
@@ -95,8 +102,25 @@ def main(argv=None) -> int:
     finally:
         if hasattr(progress, "close"):
             progress.close()
-    _print_result(cmd.name, res, args.quiet, as_json)
+    if args.result_json:
+        with open(args.result_json, "w", encoding="utf-8") as fh:
+            json.dump(res, fh, default=str)
+    _print_result(cmd.name, res, args.quiet or args.progress_lines, as_json)
     return 0
+
+
+def _terminate_as_interrupt():
+    """SIGTERM (a cancel from QGIS) unwinds like Ctrl-C, so temporary outputs are removed."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return
+
+    def handler(signum, frame):
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, handler)
 
 
 if __name__ == "__main__":  # pragma: no cover

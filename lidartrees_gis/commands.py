@@ -9,7 +9,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Callable
 
-from . import pipeline
+# This module imports nothing beyond the standard library at load time: the QGIS provider reads
+# the parameter table from it without loading numpy, GDAL or GEOS into the QGIS process.
 
 # kinds: input (point file / raster), output (file), outdir, float, int, str, choice, bool, crs, kv
 
@@ -77,6 +78,8 @@ CHM_RES = Param("res", "res", "Cell size of the CHM built from points, m, or aut
 
 
 def _info(input, **kw):
+    from . import pipeline
+
     src = pipeline.open_input(input, **_read_kw(kw))
     return pipeline.info(src, progress=kw.get("progress"))
 
@@ -87,6 +90,8 @@ def _read_kw(kw):
 
 
 def _grid(input, output, **kw):
+    from . import pipeline
+
     return pipeline.grid_file(input, output, res=kw["res"], stat=kw.get("stat") or "max",
                               fill=kw.get("fill") or "none",
                               creation_options=kw.get("creation_options"),
@@ -95,6 +100,8 @@ def _grid(input, output, **kw):
 
 
 def _chm(input, output, **kw):
+    from . import pipeline
+
     return pipeline.chm_file(input, output, res=kw["res"], dtm=kw.get("dtm") or "min",
                              fill=kw.get("fill") or "mean8", dsm_out=kw.get("dsm_out"),
                              dtm_out=kw.get("dtm_out"), creation_options=kw.get("creation_options"),
@@ -123,6 +130,7 @@ def _tree_params(kw):
 
 
 def _trees(input, output, **kw):
+    from . import pipeline
     from .io.raster import parse_kv
 
     r = pipeline.trees_file(
@@ -135,6 +143,8 @@ def _trees(input, output, **kw):
 
 
 def _compare(input, output, **kw):
+    from . import pipeline
+
     r = pipeline.compare_file(input, output, res=kw.get("res"), dtm=kw.get("dtm") or "auto",
                               fill=kw.get("fill") or "mean8",
                               min_height=float(kw.get("min_height") or 2.0),
@@ -237,3 +247,32 @@ COMMANDS = {
         (Param("outdir", "outdir", "Output folder (default lidartrees_demo)", default=None,
                required=False), OVERWRITE), _demo),
 }
+
+
+def command_args(cmd: Command, kw: dict) -> list:
+    """``lidartrees`` arguments equivalent to running ``cmd`` with ``kw``: positional parameters
+    first, then the options whose value differs from their default."""
+    args = [cmd.name]
+    for p in cmd.params:
+        v = kw.get(p.name)
+        if p.positional:
+            if v is not None:
+                args.append(str(v))
+            continue
+        if v is None or v is False or v == "" or v == [] or (v == p.default and p.kind != "res"):
+            continue
+        if p.kind == "bool":
+            args.append(p.flag)
+        elif p.kind == "kv":
+            for item in v:
+                args += [p.flag, str(item)]
+        else:
+            args += [p.flag, str(v)]
+    return args
+
+
+def command_line(cmd: Command, kw: dict) -> str:
+    """The shell command line of :func:`command_args` (as QGIS's GDAL tools show it)."""
+    import shlex
+
+    return " ".join(["lidartrees"] + [shlex.quote(a) for a in command_args(cmd, kw)])

@@ -19,7 +19,7 @@ from .grid import (GridAccumulator, GridSpec, LowestPoints, auto_resolution, che
                    fill_gaps, interpolate_tin, resample_to)
 from .io.points import PointSource, open_points
 from .io.raster import read_raster, write_geotiff
-from .progress import SubProgress, as_progress
+from .progress import SubProgress, as_progress, check_cancel
 
 DTM_CHOICES = "min, ground, lowest:R, none, auto or a DTM GeoTIFF path"
 
@@ -152,9 +152,10 @@ def compute_surfaces(src: PointSource, res, *, dtm="min", fill="mean8", progress
             lacc.add(chunk.x, chunk.y, chunk.z)
     if n == 0:
         raise InputError(f"{src.path}: no points")
+    check_cancel(prog)
     dsm_raw = acc.result("max")
     prog.update(0.86, "filling gaps")
-    dsm = fill_gaps(dsm_raw, fill)
+    dsm = fill_gaps(dsm_raw, fill, progress=SubProgress(prog, 0.86, 0.9))
     kind = method.kind
     if kind == "auto":
         kind = "ground" if int(np.isfinite(gacc.result("min")).sum()) >= 3 else "lowest"
@@ -175,6 +176,7 @@ def compute_surfaces(src: PointSource, res, *, dtm="min", fill="mean8", progress
     else:  # file
         arr, dspec, _ = read_raster(method.path)
         dtm_arr = resample_to(arr, dspec, spec)
+    check_cancel(prog)
     prog.update(0.95, "canopy height")
     chm = dsm - dtm_arr
     return {"dsm": dsm, "dtm": dtm_arr, "chm": chm, "spec": spec, "res": res, "dtm_method": kind if method.kind != "file" else method.path,
@@ -208,6 +210,7 @@ def grid_file(input, output, *, res, stat="max", fill="none", a_srs=None, t_srs=
         acc.add(chunk.x, chunk.y, chunk.z)
     if n == 0:
         raise InputError(f"{input}: no points")
+    check_cancel(prog)
     arr = acc.result(stat)
     if stat == "count":
         if fill not in (None, "none"):
@@ -239,6 +242,7 @@ def chm_file(input, output, *, res, dtm="min", fill="mean8", dsm_out=None, dtm_o
     prog = as_progress(progress)
     s = compute_surfaces(src, res, dtm=dtm, fill=fill, progress=SubProgress(prog, 0, 0.9))
     params = {"res": s["res"], "dtm": s["dtm_method"], "fill": fill}
+    check_cancel(prog)
     write_geotiff(output, s["chm"], s["spec"], overwrite=overwrite, creation_options=creation_options,
                   tags=_tags("chm", src, params), description="canopy height (m)")
     if dsm_out:
@@ -373,7 +377,9 @@ def trees_file(input, output, *, res=None, params=None, dtm="auto", fill="mean8"
     chm, spec, source = load_chm(input, res=res, dtm=dtm, fill=fill, a_srs=a_srs, t_srs=t_srs,
                                  progress=SubProgress(prog, 0, 0.5), **read_kw)
     prog.update(0.5, "detecting trees")
+    check_cancel(prog)
     result = detect_trees(chm, spec, p)
+    check_cancel(prog)
     result["chm"] = chm
     prog.update(0.8, "writing")
     frames = trees_frames(result, spec, nln)
@@ -424,6 +430,7 @@ def compare_file(input, output, *, res=None, dtm="auto", fill="mean8", min_heigh
                      "mean_height": float(np.mean(t["height"])) if n else float("nan"),
                      "mean_crown_diameter": float(np.mean(t["crown_diameter"])) if n else float("nan")})
         prog.update(0.3 + 0.7 * (i + 1) / len(TABLE1), label)
+        check_cancel(prog)
     with atomic_output(output, overwrite) as tmp:
         with open(tmp, "w", encoding="utf-8") as fh:
             fh.write("configuration,method,smooth,trees,mean_height,mean_crown_diameter\n")

@@ -64,3 +64,18 @@ def check_cancel(progress) -> None:
     """Raise :class:`Cancelled` when ``progress`` reports a cancel request."""
     if progress is not None and progress.canceled():
         raise Cancelled("cancelled by the user")
+
+
+class LineProgress(NullProgress):
+    """Machine-readable progress for a parent process: ``PROGRESS <percent> <message>`` lines on
+    stderr (used by the QGIS provider, which runs the CLI in a subprocess)."""
+
+    def __init__(self, stream=None):
+        self.stream = stream or sys.stderr
+        self._last = None
+
+    def update(self, fraction: float, message: str = "") -> None:
+        pct = round(max(0.0, min(100.0, 100.0 * float(fraction))), 1)
+        if (pct, message) != self._last:
+            self._last = (pct, message)
+            print(f"PROGRESS {pct:.1f} {message}", file=self.stream, flush=True)

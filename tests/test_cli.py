@@ -120,3 +120,36 @@ def test_external_dtm_geotiff_on_same_grid_gives_same_chm(tmp_path, seed_xyz):
     with rasterio.open(a) as da, rasterio.open(b) as db:
         np.testing.assert_allclose(db.read(1), da.read(1), atol=1e-3)
     assert main(["chm", str(seed_xyz), str(tmp_path / "c.tif"), "-dtm", "nope.tif", *common]) == 1
+
+
+def test_progress_lines_and_result_json_for_driving_programs(tmp_path, seed_xyz, capfd):
+    res = tmp_path / "r.json"
+    assert main(["grid", str(seed_xyz), str(tmp_path / "g.tif"), "-tr", "1", "-a_srs",
+                 "EPSG:29194", "--progress-lines", "--result-json", str(res)]) == 0
+    err = capfd.readouterr().err.splitlines()
+    pct = [float(line.split()[1]) for line in err if line.startswith("PROGRESS ")]
+    assert pct[-1] == 100.0 and len(pct) > 2 and pct == sorted(pct)
+    assert json.loads(res.read_text())["points"] > 80_000
+
+
+def test_sigterm_removes_partial_output(tmp_path, seed_xyz):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    big = tmp_path / "big.xyz"
+    big.write_text(seed_xyz.read_text() * 30)
+    out = tmp_path / "o.tif"
+    p = subprocess.Popen([sys.executable, "-m", "lidartrees_gis.cli", "chm", str(big), str(out),
+                          "-tr", "0.2", "-a_srs", "EPSG:29194", "--progress-lines"],
+                         stderr=subprocess.PIPE, text=True)
+    for line in p.stderr:  # wait until it is working
+        if line.startswith("PROGRESS") and float(line.split()[1]) > 5:
+            break
+    time.sleep(0.2)
+    p.send_signal(signal.SIGTERM)
+    p.communicate(timeout=120)
+    assert p.returncode == 130
+    assert not out.exists()
+    assert not [f for f in tmp_path.iterdir() if ".part" in f.name]

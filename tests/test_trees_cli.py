@@ -14,10 +14,8 @@ FIELDS = ["tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_cell
 
 
 @pytest.fixture(scope="module")
-def mixed(tmp_path_factory):
-    from conftest import data_file
-
-    f = data_file("lidR_extdata/MixedConifer.laz")
+def mixed(tmp_path_factory, data):
+    f = data("lidR_extdata/MixedConifer.laz")
     d = tmp_path_factory.mktemp("mc")
     out, chm = d / "out.gpkg", d / "chm.tif"
     rc = main(["trees", str(f), str(out), "-tr", "0.5", "-method", "watershed", "-smooth",

@@ -1,0 +1,298 @@
+"""One generic processing algorithm per ``lidartrees`` command.
+
+Parameters are built from the command's :class:`lidartrees_gis.commands.Param` list, so the
+toolbox and the CLI share names, defaults, choices and help (parameter ids are the upper-case
+names). The algorithm turns the values into ``lidartrees`` arguments and runs the CLI in a
+subprocess (see ``_lib``): progress comes back as ``PROGRESS`` lines, a cancel terminates the
+process (which removes its temporary outputs), and the CLI's error line becomes a
+QgsProcessingException. It holds no algorithm code. Adding a command to
+``lidartrees_gis.commands.COMMANDS`` adds its algorithm here.
+"""
+import json
+import os
+import queue
+import subprocess
+import tempfile
+import threading
+
+from qgis.core import (QgsProcessingAlgorithm, QgsProcessingContext,
+                       QgsProcessingException, QgsProcessingLayerPostProcessorInterface,
+                       QgsProcessingOutputNumber, QgsProcessingOutputString,
+                       QgsProcessingParameterBoolean, QgsProcessingParameterCrs,
+                       QgsProcessingParameterDefinition, QgsProcessingParameterEnum,
+                       QgsProcessingParameterFile, QgsProcessingParameterFileDestination,
+                       QgsProcessingParameterFolderDestination, QgsProcessingParameterNumber,
+                       QgsProcessingParameterRasterDestination, QgsProcessingParameterString)
+
+from ._lib import commands, executable_error, find_executable, styles_dir
+
+INPUT_FILTER = ("Point clouds and rasters (*.las *.laz *.xyz *.txt *.csv *.pts *.gz *.tif *.tiff);;"
+                "All files (*.*)")
+#: style applied to each raster/vector output when loaded (command, parameter name) -> qml
+STYLES = {("chm", "output"): "chm.qml", ("chm", "dtm_out"): "dtm_hillshade.qml",
+          ("trees", "chm_out"): "chm.qml", ("grid", "output"): None}
+GPKG_LAYERS = (("tree_tops", "tree_tops.qml"), ("crowns", "crowns.qml"))
+REFERENCES = {
+    "chm": "Castro, M. C. (2006). Segmentação de grids de alturas de dados laser para delineamento "
+           "de copas de árvores (seed 000), §2.3: DSM = highest point per cell, DTM = lowest, "
+           "gap filling by the mean of the 8 neighbours. Leite et al. (seed 003): C = sqrt(1/n).",
+    "grid": "Castro (2006), seed 000, §2.3.",
+    "trees": "Castro (2006), seed 000: Gaussian masks, grey morphology (abefec...), region growing "
+             "after Hyyppä et al. (2001) (Annex 2), Vincent & Soille (1991) watershed (Annex 1). "
+             "Pantaleão, Dutra & Macedo, TreeX (seed 001): moving window + priority growing.",
+    "compare": "Castro (2006), seed 000, Table 1.",
+}
+_KEEP = []  # post-processors must outlive processAlgorithm
+
+
+class _Style(QgsProcessingLayerPostProcessorInterface):
+    def __init__(self, qml):
+        super().__init__()
+        self.qml = qml
+
+    def postProcessLayer(self, layer, context, feedback):  # noqa: N802
+        if layer is not None and self.qml and os.path.exists(self.qml):
+            layer.loadNamedStyle(self.qml)
+            layer.triggerRepaint()
+
+
+def run_cli(args, feedback):
+    """Run ``lidartrees ARGS --progress-lines`` and follow it: progress to ``feedback``, a cancel
+    terminates it. Returns ``(exit code, last error line)``; -1 means cancelled."""
+    exe = find_executable()
+    proc = subprocess.Popen([exe, *args, "--progress-lines"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, bufsize=1)
+    lines = queue.Queue()
+
+    def pump(stream, tag):
+        for line in stream:
+            lines.put((tag, line.rstrip("\n")))
+        lines.put((tag, None))
+
+    for stream, tag in ((proc.stdout, "out"), (proc.stderr, "err")):
+        threading.Thread(target=pump, args=(stream, tag), daemon=True).start()
+    open_streams, last_err, msg = 2, "", None
+    while open_streams:
+        if feedback.isCanceled() and proc.poll() is None:
+            proc.terminate()
+        try:
+            tag, line = lines.get(timeout=0.1)
+        except queue.Empty:
+            continue
+        if line is None:
+            open_streams -= 1
+        elif tag == "err" and line.startswith("PROGRESS "):
+            parts = line.split(" ", 2)
+            feedback.setProgress(float(parts[1]))
+            if len(parts) > 2 and parts[2] and parts[2] != msg:
+                msg = parts[2]
+                feedback.setProgressText(msg)
+        elif tag == "err":
+            if line.strip():
+                last_err = line.strip()
+                feedback.pushConsoleInfo(line)
+        else:
+            feedback.pushConsoleInfo(line)
+    rc = proc.wait()
+    return (-1 if feedback.isCanceled() else rc), last_err
+
+
+def _label(p):
+    unit = f" ({p.unit})" if p.unit else ""
+    return p.help.split(";")[0].split(" (")[0].rstrip(".") + unit if len(p.help) < 60 else (
+        p.name.replace("_", " ").capitalize() + unit)
+
+
+def _output_kind(cmd_name, p):
+    if p.kind == "outdir":
+        return "folder"
+    if "png" in p.name:
+        return "png"
+    if p.name == "csv" or cmd_name == "compare":
+        return "csv"
+    if cmd_name == "trees" and p.name == "output":
+        return "gpkg"
+    return "raster"
+
+
+class CommandAlgorithm(QgsProcessingAlgorithm):
+    def __init__(self, command_name):
+        super().__init__()
+        self._name = command_name
+
+    @property
+    def cmd(self):
+        return commands()[self._name]
+
+    # -- identity --------------------------------------------------------------------------
+    def name(self):
+        return self._name
+
+    def displayName(self):  # noqa: N802
+        return f"{self.cmd.summary} ({self._name})"
+
+    def group(self):
+        return self.cmd.group
+
+    def groupId(self):  # noqa: N802
+        return self.cmd.group.lower()
+
+    def shortHelpString(self):  # noqa: N802
+        lines = [self.cmd.summary + ".", ""]
+        for p in self.cmd.params:
+            if p.name == "json":
+                continue
+            lines.append(f"<b>{p.name.upper()}</b>: {p.help}")
+        if self._name in REFERENCES:
+            lines += ["", "<i>Reference:</i> " + REFERENCES[self._name]]
+        lines += ["", f"Command line: lidartrees {self._name} --help"]
+        return "<br>".join(lines)
+
+    def createInstance(self):  # noqa: N802
+        return CommandAlgorithm(self._name)
+
+    def canExecute(self):  # noqa: N802
+        err = executable_error()
+        return (err is None, err or "")
+
+    # -- parameters ------------------------------------------------------------------------
+    def initAlgorithm(self, config=None):  # noqa: N802
+        for p in self.cmd.params:
+            if p.name == "json":
+                continue
+            d = self._make(p)
+            if p.advanced:
+                d.setFlags(d.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
+            self.addParameter(d)
+        if self._name == "info":
+            self.addOutput(QgsProcessingOutputString("JSON", "Information (JSON)"))
+            self.addOutput(QgsProcessingOutputNumber("POINTS", "Number of points"))
+        if self._name == "trees":
+            self.addOutput(QgsProcessingOutputNumber("TREES", "Number of trees"))
+
+    def _make(self, p):
+        pid, label = p.name.upper(), _label(p)
+        optional = not (p.positional or p.required)
+        if p.kind == "input":
+            return QgsProcessingParameterFile(pid, label, QgsProcessingParameterFile.File,
+                                              fileFilter=INPUT_FILTER)
+        if p.kind in ("output", "outdir"):
+            kind = _output_kind(self._name, p)
+            opt = not p.positional
+            if kind == "folder":
+                return QgsProcessingParameterFolderDestination(pid, label, optional=True)
+            if kind == "raster":
+                return QgsProcessingParameterRasterDestination(pid, label, optional=opt,
+                                                               createByDefault=not opt)
+            filt = {"gpkg": "GeoPackage (*.gpkg)", "csv": "CSV (*.csv)", "png": "PNG (*.png)"}[kind]
+            return QgsProcessingParameterFileDestination(pid, label, filt, optional=opt,
+                                                         createByDefault=not opt)
+        if p.kind == "choice":
+            return QgsProcessingParameterEnum(pid, label, options=list(p.choices),
+                                              defaultValue=p.default, optional=optional,
+                                              usesStaticStrings=True)
+        if p.kind == "bool":
+            return QgsProcessingParameterBoolean(pid, label, defaultValue=bool(p.default),
+                                                 optional=True)
+        if p.kind == "float":
+            return QgsProcessingParameterNumber(pid, label, QgsProcessingParameterNumber.Double,
+                                                defaultValue=p.default, optional=optional)
+        if p.kind == "crs":
+            return QgsProcessingParameterCrs(pid, label, optional=True)
+        if p.kind == "res":
+            return QgsProcessingParameterString(pid, "Cell size (m), or auto",
+                                                optional=not p.required)
+        return QgsProcessingParameterString(pid, label, defaultValue=p.default, optional=True)
+
+    def _value(self, p, parameters, context):
+        pid = p.name.upper()
+        if pid not in parameters or parameters[pid] is None:
+            return p.default if p.kind != "output" else None
+        if p.kind == "input":
+            return self.parameterAsFile(parameters, pid, context)
+        if p.kind in ("output", "outdir"):
+            kind = _output_kind(self._name, p)
+            if kind == "folder":
+                return self.parameterAsString(parameters, pid, context) or None
+            if kind == "raster":
+                v = self.parameterAsOutputLayer(parameters, pid, context)
+            else:
+                v = self.parameterAsFileOutput(parameters, pid, context)
+            return v or None
+        if p.kind == "choice":
+            return self.parameterAsEnumString(parameters, pid, context) or p.default
+        if p.kind == "bool":
+            v = self.parameterAsBoolean(parameters, pid, context)
+            return True if v else (None if p.default is None else False)
+        if p.kind == "float":
+            return self.parameterAsDouble(parameters, pid, context)
+        if p.kind == "crs":
+            crs = self.parameterAsCrs(parameters, pid, context)
+            if not crs.isValid():
+                return None
+            return crs.authid() or crs.toWkt()
+        if p.kind == "kv":
+            s = self.parameterAsString(parameters, pid, context)
+            return [t for t in s.replace(";", " ").split() if t] or None
+        s = self.parameterAsString(parameters, pid, context)
+        return s if s != "" else p.default
+
+    # -- run -------------------------------------------------------------------------------
+    def processAlgorithm(self, parameters, context, feedback):  # noqa: N802
+        err = executable_error()
+        if err:
+            raise QgsProcessingException(err)
+        from lidartrees_gis.commands import command_args, command_line
+
+        cmd = self.cmd
+        kw = {p.name: self._value(p, parameters, context) for p in cmd.params if p.name != "json"}
+        feedback.pushCommandInfo(command_line(cmd, kw))
+        fd, result_file = tempfile.mkstemp(prefix="lidartrees-", suffix=".json")
+        os.close(fd)
+        try:
+            rc, last = run_cli(command_args(cmd, kw) + ["--result-json", result_file], feedback)
+            if rc == -1:
+                feedback.reportError("cancelled: no output written")
+                return {}
+            if rc != 0:
+                raise QgsProcessingException(last.split("error: ", 1)[-1] or f"lidartrees exit {rc}")
+            with open(result_file, encoding="utf-8") as fh:
+                res = json.load(fh)
+        finally:
+            os.unlink(result_file)
+        out = {}
+        for p in cmd.params:
+            if p.kind in ("output", "outdir") and kw.get(p.name):
+                out[p.name.upper()] = kw[p.name]
+                self._load_with_style(p, kw[p.name], context)
+        if self._name == "info":
+            out["JSON"] = json.dumps(res)
+            out["POINTS"] = res["points"]
+        if self._name == "trees":
+            out["TREES"] = res["trees"]
+        for k, v in res.items():
+            if k not in ("table", "crs_wkt") and not isinstance(v, (dict, list)):
+                feedback.pushInfo(f"{k}: {v}")
+        if "table" in res:
+            feedback.pushInfo(res["table"])
+        return out
+
+    def _load_with_style(self, p, path, context):
+        sdir = styles_dir()
+        if self._name == "trees" and p.name == "output":
+            for layer, qml in GPKG_LAYERS:
+                uri = f"{path}|layername={layer}"
+                details = QgsProcessingContext.LayerDetails(layer, context.project(), layer)
+                if sdir:
+                    post = _Style(os.path.join(sdir, qml))
+                    _KEEP.append(post)
+                    details.setPostProcessor(post)
+                context.addLayerToLoadOnCompletion(uri, details)
+            return
+        qml = STYLES.get((self._name, p.name))
+        if qml and sdir and context.willLoadLayerOnCompletion(path):
+            post = _Style(os.path.join(sdir, qml))
+            _KEEP.append(post)
+            context.layerToLoadOnCompletionDetails(path).setPostProcessor(post)
+
+

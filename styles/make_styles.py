@@ -1,0 +1,95 @@
+"""Regenerate the QGIS styles in this folder with PyQGIS (QGIS >= 3.22):
+
+    QT_QPA_PLATFORM=offscreen .venv-qgis/bin/python styles/make_styles.py
+
+Layers are made in memory, styled with QGIS's own renderers and saved as .qml, so the files are
+always valid for the QGIS version that wrote them.
+"""
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+from qgis.core import (QgsApplication, QgsClassificationEqualInterval, QgsColorRampShader,  # noqa: E402
+                       QgsFillSymbol, QgsGradientColorRamp, QgsGraduatedSymbolRenderer,
+                       QgsHillshadeRenderer, QgsMarkerSymbol, QgsRasterLayer, QgsRasterShader,
+                       QgsRendererRange, QgsSingleBandPseudoColorRenderer, QgsStyle,
+                       QgsVectorLayer)
+from qgis.PyQt.QtGui import QColor  # noqa: E402
+
+HERE = Path(__file__).resolve().parent
+
+
+def tiny_raster(path):
+    import numpy as np
+    import rasterio
+    from rasterio.transform import from_origin
+
+    with rasterio.open(path, "w", driver="GTiff", width=4, height=4, count=1, dtype="float32",
+                       crs="EPSG:29194", transform=from_origin(0, 4, 1, 1)) as ds:
+        ds.write(np.arange(16, dtype="float32").reshape(4, 4), 1)
+
+
+def ramp(name):
+    r = QgsStyle.defaultStyle().colorRamp(name)
+    return r if r is not None else QgsGradientColorRamp(QColor("#f7fcb9"), QColor("#004529"))
+
+
+def chm_style(path, out):
+    lyr = QgsRasterLayer(str(path), "chm")
+    shader = QgsRasterShader()
+    fn = QgsColorRampShader(0.0, 40.0, ramp("Viridis"), QgsColorRampShader.Interpolated)
+    fn.classifyColorRamp(9, -1)
+    shader.setRasterShaderFunction(fn)
+    rend = QgsSingleBandPseudoColorRenderer(lyr.dataProvider(), 1, shader)
+    rend.setClassificationMin(0.0)
+    rend.setClassificationMax(40.0)
+    lyr.setRenderer(rend)
+    lyr.saveNamedStyle(str(out))
+
+
+def dtm_style(path, out):
+    lyr = QgsRasterLayer(str(path), "dtm")
+    rend = QgsHillshadeRenderer(lyr.dataProvider(), 1, 315.0, 45.0)
+    rend.setZFactor(1.0)
+    rend.setMultiDirectional(True)
+    lyr.setRenderer(rend)
+    lyr.saveNamedStyle(str(out))
+
+
+def graduated(layer, field, symbol_fn, breaks, colors):
+    ranges = []
+    for (lo, hi), col in zip(zip(breaks[:-1], breaks[1:]), colors):
+        ranges.append(QgsRendererRange(lo, hi, symbol_fn(col), f"{lo:g} - {hi:g}"))
+    rend = QgsGraduatedSymbolRenderer(field, ranges)
+    rend.setClassificationMethod(QgsClassificationEqualInterval())
+    layer.setRenderer(rend)
+
+
+def main():
+    app = QgsApplication([], False)
+    app.initQgis()
+    with tempfile.TemporaryDirectory() as d:
+        tif = Path(d) / "t.tif"
+        tiny_raster(tif)
+        chm_style(tif, HERE / "chm.qml")
+        dtm_style(tif, HERE / "dtm_hillshade.qml")
+    heights = [0, 5, 10, 15, 20, 25, 30, 40, 100]
+    hcol = ["#ffffcc", "#d9f0a3", "#addd8e", "#78c679", "#41ab5d", "#238443", "#006837", "#004529"]
+    pts = QgsVectorLayer("Point?field=height:double&field=crown_diameter:double", "tree_tops", "memory")
+    graduated(pts, "height", lambda c: QgsMarkerSymbol.createSimple(
+        {"name": "circle", "color": c, "outline_color": "#222222", "size": "2"}), heights, hcol)
+    pts.saveNamedStyle(str(HERE / "tree_tops.qml"))
+    diam = [0, 1, 2, 3, 4, 6, 8, 12, 100]
+    dcol = ["#fde725", "#b5de2b", "#6ece58", "#35b779", "#1f9e89", "#26828e", "#31688e", "#3e4989"]
+    polys = QgsVectorLayer("Polygon?field=height:double&field=crown_diameter:double", "crowns", "memory")
+    graduated(polys, "crown_diameter", lambda c: QgsFillSymbol.createSimple(
+        {"style": "no", "outline_color": c, "outline_width": "0.5"}), diam, dcol)
+    polys.saveNamedStyle(str(HERE / "crowns.qml"))
+    app.exitQgis()
+    print("styles written to", HERE)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

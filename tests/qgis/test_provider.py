@@ -1,0 +1,184 @@
+import json
+import os
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import geopandas as gpd
+import numpy as np
+import pytest
+import rasterio
+
+from lidartrees_gis.cli import build_parser, main
+from lidartrees_gis.commands import COMMANDS
+
+pytestmark = pytest.mark.qgis
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def run(alg, params, feedback=None):
+    import processing
+    from qgis.core import QgsProcessingFeedback
+
+    return processing.run(f"lidartrees:{alg}", params, feedback=feedback or QgsProcessingFeedback())
+
+
+def test_provider_lists_every_command(qgis_app):
+    from qgis.core import QgsApplication
+
+    prov = QgsApplication.processingRegistry().providerById("lidartrees")
+    assert prov is not None and prov.name() == "LiDAR Trees"
+    assert {a.name() for a in prov.algorithms()} == set(COMMANDS)
+    for a in prov.algorithms():
+        ok, msg = a.canExecute()
+        assert ok, msg
+        assert a.group() and a.shortHelpString()
+
+
+def test_every_algorithm_has_the_cli_parameters(qgis_app):
+    """Provider and CLI cannot drift: same names, same defaults, same choices."""
+    from qgis.core import QgsApplication, QgsProcessingParameterEnum
+
+    sub = build_parser()._subparsers._group_actions[0].choices
+    for alg in QgsApplication.processingRegistry().providerById("lidartrees").algorithms():
+        cli = {a.dest: a for a in sub[alg.name()]._actions
+               if a.dest not in ("help", "quiet", "json", "progress_lines", "result_json")}
+        qg = {d.name().lower(): d for d in alg.parameterDefinitions()}
+        assert set(qg) == set(cli), alg.name()
+        for name, d in qg.items():
+            a = cli[name]
+            if isinstance(d, QgsProcessingParameterEnum):
+                assert d.usesStaticStrings() and list(d.options()) == list(a.choices)
+                assert d.defaultValue() == a.default
+            elif d.type() == "number":
+                assert d.defaultValue() == pytest.approx(float(a.default))
+
+
+def test_chm_matches_cli(qgis_app, tmp_path, data):
+    f = data("lasR_bcts/bcts_1.laz")
+    r = run("chm", {"INPUT": str(f), "OUTPUT": str(tmp_path / "q.tif"), "RES": "0.5"})
+    assert main(["chm", str(f), str(tmp_path / "c.tif"), "-tr", "0.5", "-q"]) == 0
+    with rasterio.open(r["OUTPUT"]) as q, rasterio.open(tmp_path / "c.tif") as c:
+        assert q.crs.to_epsg() == 3005
+        np.testing.assert_array_equal(q.read(1), c.read(1))
+
+
+def test_trees_same_trees_as_cli(qgis_app, tmp_path, data):
+    f = data("lidR_extdata/MixedConifer.laz")
+    q = tmp_path / "q.gpkg"
+    r = run("trees", {"INPUT": str(f), "OUTPUT": str(q), "RES": "0.5", "METHOD": "watershed",
+                      "SMOOTH": "abefec:rhombus"})
+    c = tmp_path / "c.gpkg"
+    assert main(["trees", str(f), str(c), "-tr", "0.5", "-method", "watershed", "-smooth",
+                 "abefec:rhombus", "-q"]) == 0
+    qt, ct = gpd.read_file(q, layer="tree_tops"), gpd.read_file(c, layer="tree_tops")
+    assert r["TREES"] == len(qt) == len(ct)
+    assert set(qt.tree_id) == set(ct.tree_id)
+    qc = gpd.read_file(q, layer="crowns")
+    assert qc.crs.to_epsg() == 26912 and set(qc.tree_id) == set(qt.tree_id)
+    assert {"tree_id", "height", "crown_area", "crown_diameter"} <= set(qc.columns)
+
+
+def test_info_grid_compare_demo(qgis_app, tmp_path, data):
+    f = data("lasR_bcts/bcts_2.laz")
+    r = run("info", {"INPUT": str(f)})
+    assert r["POINTS"] == 823945 and json.loads(r["JSON"])["crs"].startswith("EPSG:3005")
+    r = run("grid", {"INPUT": str(f), "OUTPUT": str(tmp_path / "n.tif"), "RES": "1", "STAT": "count"})
+    with rasterio.open(r["OUTPUT"]) as ds:
+        assert int(ds.read(1).sum()) == 823945
+    r = run("compare", {"INPUT": str(data("lidR_extdata/MixedConifer.laz")),
+                        "OUTPUT": str(tmp_path / "t.csv"), "RES": "0.5"})
+    assert len(Path(r["OUTPUT"]).read_text().strip().splitlines()) == 11
+    r = run("demo", {"OUTDIR": str(tmp_path / "demo")})
+    with rasterio.open(tmp_path / "demo" / "chm.tif") as ds:
+        assert ds.crs.to_epsg() == 29194
+
+
+def test_library_error_becomes_processing_exception(qgis_app, tmp_path, data):
+    from qgis.core import QgsProcessingException
+
+    with pytest.raises(QgsProcessingException, match="-tr"):
+        run("chm", {"INPUT": str(data("lasR_bcts/bcts_1.laz")), "OUTPUT": str(tmp_path / "x.tif"),
+                    "RES": "-1"})
+    assert not (tmp_path / "x.tif").exists()
+
+
+def test_progress_moves_and_cancel_leaves_no_output(qgis_app, tmp_path, data):
+    from qgis.core import QgsProcessingFeedback
+
+    f = str(data("lasR_bcts/bcts_3.laz"))
+    fb = QgsProcessingFeedback()
+    seen = []
+    fb.progressChanged.connect(seen.append)
+    run("chm", {"INPUT": f, "OUTPUT": str(tmp_path / "a.tif"), "RES": "0.5"}, fb)
+    assert max(seen) == pytest.approx(100) and len(set(seen)) > 3
+
+    class CancelSoon(QgsProcessingFeedback):
+        pass
+
+    fb2 = CancelSoon()
+    fb2.progressChanged.connect(lambda v: fb2.cancel() if v > 10 else None)
+    out = tmp_path / "b.tif"
+    r = run("chm", {"INPUT": f, "OUTPUT": str(out), "RES": "0.5"}, fb2)
+    assert r == {} or not out.exists()
+    assert not out.exists()
+    assert not [p for p in tmp_path.iterdir() if ".part" in p.name]
+
+
+def test_styles_load_and_apply_to_loaded_outputs(qgis_app, tmp_path, data):
+    import processing
+    from qgis.core import QgsProject, QgsRasterLayer, QgsVectorLayer
+
+    chm = tmp_path / "chm.tif"
+    assert main(["chm", str(data("lasR_bcts/bcts_1.laz")), str(chm), "-tr", "2", "-q"]) == 0
+    for qml in ("chm.qml", "dtm_hillshade.qml"):
+        lyr = QgsRasterLayer(str(chm), "r")
+        msg, ok = lyr.loadNamedStyle(str(ROOT / "styles" / qml))
+        assert ok, msg
+    processing.runAndLoadResults("lidartrees:trees", {
+        "INPUT": str(data("lidR_extdata/MixedConifer.laz")), "OUTPUT": str(tmp_path / "t.gpkg"),
+        "RES": "0.5", "SMOOTH": "gauss5"})
+    crowns = QgsProject.instance().mapLayersByName("crowns")
+    tops = QgsProject.instance().mapLayersByName("tree_tops")
+    assert crowns and tops
+    assert crowns[0].renderer().type() == "graduatedSymbol"
+    assert crowns[0].renderer().classAttribute() == "crown_diameter"
+    assert tops[0].renderer().classAttribute() == "height"
+    v = QgsVectorLayer(f"{tmp_path / 't.gpkg'}|layername=tree_tops", "v", "ogr")
+    msg, ok = v.loadNamedStyle(str(ROOT / "styles" / "tree_tops.qml"))
+    assert ok, msg
+
+
+def test_plugin_zip_installs_and_runs_in_qgis_process(qgis_app, tmp_path, data):
+    sys.path.insert(0, str(ROOT / "scripts"))
+    from build_plugin import build
+
+    z = build(tmp_path / "lidartrees_qgis.zip")
+    plugins = tmp_path / "plugins"
+    with zipfile.ZipFile(z) as zf:
+        zf.extractall(plugins)
+    assert (plugins / "lidartrees_qgis" / "metadata.txt").exists()
+    home = tmp_path / "home"
+    home.mkdir(mode=0o700)
+    # a fresh profile; the plugin finds the lidartrees command through LIDARTREES_EXE
+    env = dict(os.environ, QGIS_PLUGINPATH=str(plugins), HOME=str(home), XDG_RUNTIME_DIR=str(home),
+               QT_QPA_PLATFORM="offscreen")
+    env.pop("PYTHONPATH", None)
+    qp = "/usr/bin/qgis_process.bin"
+    if not os.path.exists(qp):
+        pytest.skip("qgis_process.bin not installed (Debian package qgis)")
+    r = subprocess.run([qp, "plugins", "enable", "lidartrees_qgis"], env=env, capture_output=True,
+                       text=True, timeout=120)
+    assert r.returncode == 0, r.stdout + r.stderr
+    r = subprocess.run([qp, "list"], env=env, capture_output=True, text=True, timeout=120)
+    for name in COMMANDS:
+        assert f"lidartrees:{name}" in r.stdout, r.stdout[-2000:] + r.stderr[-2000:]
+    out = tmp_path / "qp.gpkg"
+    r = subprocess.run([qp, "--json", "run", "lidartrees:trees", "--",
+                        f"INPUT={data('lidR_extdata/MixedConifer.laz')}", f"OUTPUT={out}",
+                        "RES=0.5", "SMOOTH=gauss5"], env=env, capture_output=True, text=True,
+                       timeout=300)
+    assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
+    res = json.loads(r.stdout[r.stdout.index("{"):])
+    assert res["results"]["TREES"] == len(gpd.read_file(out, layer="tree_tops")) > 100
