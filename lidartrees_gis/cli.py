@@ -71,10 +71,33 @@ def _print_result(name, res, quiet, as_json):
         print(res["table"])
 
 
+def _join_dash_values(argv, ap):
+    """GDAL-style ``-g -4:1:0.5``: an option value that starts with '-' is glued to its flag
+    (``-g=-4:1:0.5``) so argparse does not take it for an option."""
+    flags = set()
+    for action in ap._subparsers._group_actions[0].choices.values() if ap._subparsers else ():
+        for a in action._actions:
+            if a.option_strings and a.nargs is None and a.const is None:
+                flags.update(a.option_strings)
+    known = {s for sp in ap._subparsers._group_actions[0].choices.values()
+             for a in sp._actions for s in a.option_strings}
+    out, i = [], 0
+    while i < len(argv):
+        tok = argv[i]
+        if tok in flags and i + 1 < len(argv) and argv[i + 1].startswith("-") \
+                and argv[i + 1] not in known:
+            out.append(f"{tok}={argv[i + 1]}")
+            i += 2
+            continue
+        out.append(tok)
+        i += 1
+    return out
+
+
 def main(argv=None) -> int:
     """Run the CLI; returns the exit code."""
     ap = build_parser()
-    args = ap.parse_args(argv)
+    args = ap.parse_args(_join_dash_values(list(sys.argv[1:] if argv is None else argv), ap))
     if not args.command:
         ap.print_help(sys.stderr)
         return 2

@@ -73,6 +73,22 @@ CO = Param("creation_options", "kv", "GDAL creation option KEY=VALUE for GeoTIFF
 OVERWRITE = Param("overwrite", "bool", "Replace existing outputs", flag="-overwrite",
                   aliases=("--overwrite",), default=False)
 READ = (A_SRS, T_SRS, DELIM, DECIMAL_COMMA, COLUMNS, SKIP_INVALID)
+KP_PARAMS = (
+    Param("g", "float", "Kraus & Pfeifer g: residuals at or below g get weight 1", flag="-g",
+          default=-2.0, unit="m"),
+    Param("w", "float", "Kraus & Pfeifer w: residuals above g + w get weight 0", flag="-w",
+          default=2.5, unit="m"),
+    Param("a", "float", "Weight function a", flag="-a", default=1.0, advanced=True),
+    Param("b", "float", "Weight function b", flag="-b", default=4.0, advanced=True),
+    Param("iterations", "float", "Iterations per level", flag="-iterations", default=5,
+          advanced=True),
+    Param("cell", "float", "Cell of the finest filter surface", flag="-cell", default=3.0,
+          advanced=True, unit="m"),
+    Param("levels", "float", "Hierarchy levels (cell x 2^(levels-1) down to cell); 1 = plain "
+          "filter", flag="-levels", default=3, advanced=True),
+    Param("tolerance", "float", "Final ground = |residual| <= tolerance (FUSION /tolerance); "
+          "default: residual <= g + w", flag="-tolerance", advanced=True, unit="m"),
+)
 CHM_RES = Param("res", "res", "Cell size of the CHM built from points, m, or auto", flag="-tr",
                 aliases=("--resolution",), unit="m")
 
@@ -153,6 +169,42 @@ def _compare(input, output, **kw):
     return {"output": r["output"], "table": r["table"]}
 
 
+def _kp_params(kw):
+    from .ground import KrausPfeifer
+
+    names = ("g", "w", "a", "b", "iterations", "cell", "levels", "tolerance")
+    vals = {}
+    for n in names:
+        v = kw.get(n)
+        if v is None or (n in ("g", "w") and isinstance(v, str) and ":" in v):
+            continue
+        try:
+            vals[n] = int(v) if n in ("iterations", "levels") else float(v)
+        except ValueError:
+            from .errors import InputError
+
+            raise InputError(f"-{n}: expected a number, got {v!r}") from None
+    return KrausPfeifer(**vals)
+
+
+def _ground(input, output, **kw):
+    from . import pipeline
+
+    return pipeline.ground_file(input, output, dtm_out=kw.get("dtm_out"), res=kw.get("res") or "auto",
+                                params=_kp_params(kw), overwrite=bool(kw.get("overwrite")),
+                                creation_options=kw.get("creation_options"),
+                                progress=kw.get("progress"), **_read_kw(kw))
+
+
+def _dtm_quality(input, outdir, **kw):
+    from . import pipeline
+
+    return pipeline.dtm_quality_file(
+        input, outdir, g=kw.get("g") or "-4:1:0.5", w=kw.get("w") or "1:4:0.5",
+        res=kw.get("res") or "auto", params=_kp_params(kw), seed=int(kw.get("seed") or 0),
+        overwrite=bool(kw.get("overwrite")), progress=kw.get("progress"), **_read_kw(kw))
+
+
 def _demo(outdir=None, **kw):
     from .demo import run_demo
 
@@ -175,7 +227,8 @@ COMMANDS = {
         "chm", "Rasters", "Canopy height model CHM = DSM (highest point per cell) - DTM",
         (INPUT, Param("output", "output", "Output CHM GeoTIFF"), RES,
          Param("dtm", "str", "DTM: min = lowest point per cell (seed 000); ground = class-2 points "
-               "interpolated (TIN); lowest:R = lowest point per R m cell, interpolated; none = "
+               "interpolated (TIN); lowest:R = lowest point per R m cell, interpolated; kp or "
+               "kp:G:W = Kraus & Pfeifer ground filter (seed 003); none = "
                "heights already normalised; auto = ground if classified else lowest:5; or a DTM "
                "GeoTIFF path", flag="-dtm", default="min"),
          FILL,
@@ -242,6 +295,28 @@ COMMANDS = {
          Param("fill", "choice", FILL.help, flag="-fill", choices=("mean8", "none"),
                default="mean8", advanced=True),
          *READ, OVERWRITE), _compare, outputs=("output",)),
+    "ground": Command(
+        "ground", "Ground", "Ground points by Kraus & Pfeifer robust interpolation (seed 003), "
+        "classified LAS/LAZ and DTM",
+        (INPUT, Param("output", "output", "Output classified LAS/LAZ (ground = class 2)"),
+         Param("dtm_out", "output", "Also write the DTM GeoTIFF (linear TIN of the ground points)",
+               flag="-dtm"),
+         Param("res", "res", "DTM cell size, m, or auto = sqrt(1/n) (seed 003)", flag="-tr",
+               aliases=("--resolution",), default="auto", unit="m"),
+         *KP_PARAMS, *READ, CO, OVERWRITE), _ground, outputs=("output", "dtm_out")),
+    "dtm-quality": Command(
+        "dtm-quality", "Ground", "DTM quality sweep of seed 003: Kraus & Pfeifer (g, w) grid, "
+        "GLCM texture, PCA, k-means",
+        (INPUT, Param("outdir", "outdir", "Output folder (CSV, hillshade PNGs)", required=True),
+         Param("g", "str", "g values START:STOP:STEP (seed 003: -4:1:0.5)", flag="-g",
+               default="-4:1:0.5"),
+         Param("w", "str", "w values START:STOP:STEP (seed 003: 1:4:0.5)", flag="-w",
+               default="1:4:0.5"),
+         Param("res", "res", "DTM cell size, m, or auto = sqrt(1/n) (seed 003)", flag="-tr",
+               aliases=("--resolution",), default="auto", unit="m"),
+         *[p for p in KP_PARAMS if p.name not in ("g", "w", "tolerance")],
+         Param("seed", "float", "k-means random seed", flag="-seed", default=0, advanced=True),
+         *READ, OVERWRITE), _dtm_quality),
     "demo": Command(
         "demo", "Demo", "Generate a synthetic eucalyptus stand with known trees and process it",
         (Param("outdir", "outdir", "Output folder (default lidartrees_demo)", default=None,

@@ -21,7 +21,7 @@ from .io.points import PointSource, open_points
 from .io.raster import read_raster, write_geotiff
 from .progress import SubProgress, as_progress, check_cancel
 
-DTM_CHOICES = "min, ground, lowest:R, none, auto or a DTM GeoTIFF path"
+DTM_CHOICES = "min, ground, lowest:R, kp[:G:W], none, auto or a DTM GeoTIFF path"
 
 
 def open_input(path, *, a_srs=None, t_srs=None, require_crs=False, **kw) -> PointSource:
@@ -80,9 +80,11 @@ def grid_spec_for(src: PointSource, res: float, progress=None) -> GridSpec:
 class DtmMethod:
     """Parsed ``-dtm`` value."""
 
-    kind: str  # min | ground | lowest | none | auto | file
+    kind: str  # min | ground | lowest | none | auto | kp | file
     size: float | None = None
     path: str | None = None
+    g: float | None = None
+    w: float | None = None
 
     @classmethod
     def parse(cls, value) -> "DtmMethod":
@@ -90,6 +92,10 @@ class DtmMethod:
         low = v.lower()
         if low in ("min", "ground", "none", "auto"):
             return cls(low)
+        m = re.fullmatch(r"kp(?::(-?[0-9.]+):([0-9.]+))?", low)
+        if m:
+            return cls("kp", g=float(m.group(1)) if m.group(1) else None,
+                       w=float(m.group(2)) if m.group(2) else None)
         m = re.fullmatch(r"lowest(?::([0-9.]+))?", low)
         if m:
             size = float(m.group(1) or 5.0)
@@ -103,6 +109,8 @@ class DtmMethod:
         raise InputError(f"-dtm: unknown value {value!r}; use {DTM_CHOICES}")
 
     def describe(self) -> str:
+        if self.kind == "kp" and self.g is not None:
+            return f"kp:{self.g:g}:{self.w:g}"
         return {"lowest": f"lowest:{self.size:g}", "file": self.path}.get(self.kind, self.kind)
 
 
@@ -117,7 +125,8 @@ def compute_surfaces(src: PointSource, res, *, dtm="min", fill="mean8", progress
     dtm : str
         ``min`` lowest point per cell (seed 000's simple method); ``ground`` lowest class-2 point
         per cell, linearly interpolated (TIN) over the grid; ``lowest:R`` the lowest point of each R-metre
-        cell, at its own position, interpolated (TIN); ``none`` heights are already normalised (DTM = 0); ``auto``
+        cell, at its own position, interpolated (TIN); ``kp`` or ``kp:G:W`` ground points of the
+        Kraus & Pfeifer filter (seed 003; defaults g = -2, w = 2.5), interpolated (TIN); ``none`` heights are already normalised (DTM = 0); ``auto``
         ``ground`` when the file has class-2 points, else ``lowest:5``; or a DTM GeoTIFF path,
         resampled bilinearly onto the grid.
     fill : {"mean8", "none"}
@@ -173,6 +182,12 @@ def compute_surfaces(src: PointSource, res, *, dtm="min", fill="mean8", progress
         dtm_arr = interpolate_tin(gx, gy, gmin[r, c], spec)
     elif kind == "lowest":
         dtm_arr = interpolate_tin(*lacc.points(), spec)
+    elif kind == "kp":
+        from .ground import KrausPfeifer
+
+        kp = KrausPfeifer() if method.g is None else KrausPfeifer(g=method.g, w=method.w)
+        pts, ground = ground_points(src, kp, SubProgress(prog, 0.86, 0.93))
+        dtm_arr = dtm_from_ground(pts, ground, spec)
     else:  # file
         arr, dspec, _ = read_raster(method.path)
         dtm_arr = resample_to(arr, dspec, spec)
@@ -441,3 +456,237 @@ def compare_file(input, output, *, res=None, dtm="auto", fill="mean8", min_heigh
     md += [f"| {r['configuration']} | {r['trees']} | {r['mean_height']:.2f} | "
            f"{r['mean_crown_diameter']:.2f} |" for r in rows]
     return {"output": str(output), "rows": rows, "table": "\n".join(md)}
+
+
+# ---------------------------------------------------------------------------------------------
+# ground filter and DTM quality (seed 003)
+def ground_points(src: PointSource, params=None, progress=None):
+    """Run the Kraus & Pfeifer filter on every point of ``src``: (points, ground mask)."""
+    from .ground import kraus_pfeifer
+
+    prog = as_progress(progress)
+    pts = src.read_all(SubProgress(prog, 0.0, 0.2))
+    if len(pts) == 0:
+        raise InputError(f"{src.path}: no points")
+    ground, _ = kraus_pfeifer(pts.x, pts.y, pts.z, params, progress=SubProgress(prog, 0.2, 0.8))
+    if ground.sum() < 3:
+        raise InputError(f"{src.path}: the ground filter kept {int(ground.sum())} points; "
+                         "raise -w or lower -g")
+    return pts, ground
+
+
+def grid_surface(x, y, z, spec: GridSpec) -> np.ndarray:
+    """Mean height of the points in each cell, empty cells filled by mean8 (as FUSION's
+    GridSurfaceCreate, which seed 003 used for its DTMs)."""
+    acc = GridAccumulator(spec, ("mean",))
+    acc.add(x, y, z)
+    return fill_gaps(acc.result("mean"), "mean8")
+
+
+def dtm_from_ground(pts, ground, spec: GridSpec) -> np.ndarray:
+    """Linear TIN of the ground points sampled at the cell centres of ``spec``."""
+    return interpolate_tin(pts.x[ground], pts.y[ground], pts.z[ground], spec)
+
+
+def ground_file(input, output, *, dtm_out=None, res="auto", params=None, overwrite=False,
+                a_srs=None, t_srs=None, creation_options=None, progress=None, **read_kw) -> dict:
+    """Classify ground (class 2) with Kraus & Pfeifer robust interpolation; write the classified
+    LAS/LAZ and optionally the DTM GeoTIFF (linear TIN of the ground points, cell sqrt(1/n))."""
+    from .io.lasout import write_classified
+    from .io.output import check_output
+
+    check_output(output, overwrite)
+    if dtm_out:
+        check_output(dtm_out, overwrite, param="-dtm")
+    src = open_input(input, a_srs=a_srs, t_srs=t_srs, **read_kw)
+    prog = as_progress(progress)
+    pts, ground = ground_points(src, params, SubProgress(prog, 0, 0.7))
+    check_cancel(prog)
+    cls = np.where(ground, 2, np.where(pts.classification == 2, 1, pts.classification)
+                   if pts.classification is not None else 1).astype(np.uint8)
+    write_classified(output, src, cls, overwrite=overwrite)
+    out = {"output": str(output), "points": len(pts), "ground": int(ground.sum()),
+           "ground_share": float(ground.mean()), "crs": crs_label(src.crs)}
+    if dtm_out:
+        r = resolve_resolution(src, res)
+        spec = GridSpec.from_bounds(pts.x.min(), pts.y.min(), pts.x.max(), pts.y.max(), r,
+                                    crs=src.crs)
+        prog.update(0.85, "DTM")
+        dtm = dtm_from_ground(pts, ground, spec)
+        check_cancel(prog)
+        from .ground import KrausPfeifer
+
+        write_geotiff(dtm_out, dtm, spec, overwrite=overwrite, creation_options=creation_options,
+                      tags=_tags("ground", src, {"res": r, **(params or KrausPfeifer()).as_dict()}),
+                      description="terrain height (m)")
+        out.update({"dtm": str(dtm_out), "res": r})
+    prog.update(1.0, "done")
+    return out
+
+
+def parse_range(text, param):
+    """``START:STOP:STEP`` (inclusive) or a comma list -> list of floats."""
+    s = str(text).strip()
+    try:
+        if ":" in s:
+            a, b, c = (float(t) for t in s.split(":"))
+            if c <= 0 or b < a:
+                raise ValueError
+            n = int(round((b - a) / c)) + 1
+            return [round(a + i * c, 10) for i in range(n)]
+        return [float(t) for t in s.split(",") if t.strip()]
+    except ValueError:
+        raise InputError(f"{param}: expected START:STOP:STEP or a comma list, got {text!r}") from None
+
+
+_SWEEP = {}
+
+
+def _sweep_init(x, y, z, spec, base):
+    _SWEEP.update(x=x, y=y, z=z, spec=spec, base=base)
+
+
+def _sweep_one(gw):
+    from dataclasses import replace
+
+    from .ground import kraus_pfeifer, texture_descriptors
+
+    g, w = gw
+    x, y, z, spec = _SWEEP["x"], _SWEEP["y"], _SWEEP["z"], _SWEEP["spec"]
+    try:
+        ground, _ = kraus_pfeifer(x, y, z, replace(_SWEEP["base"], g=g, w=w))
+    except InputError:
+        ground = np.zeros(x.size, bool)
+    if ground.any():
+        dtm = grid_surface(x[ground], y[ground], z[ground], spec)
+    else:  # an incomplete DTM: nothing to interpolate
+        dtm = np.full(spec.shape, np.nan)
+    return g, w, int(ground.sum()), texture_descriptors(dtm), dtm.astype(np.float32)
+
+
+def write_hillshade_png(path, dtm, res, title="", overwrite=False):
+    """Hillshade (azimuth 315°, altitude 45°) of a DTM as a PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import LightSource
+
+    from .io.output import atomic_output
+
+    a = np.asarray(dtm, dtype=np.float64)
+    fill = np.nanmean(a) if np.isfinite(a).any() else 0.0
+    hs = LightSource(azdeg=315, altdeg=45).hillshade(np.where(np.isfinite(a), a, fill), dx=res, dy=res)
+    fig = plt.figure(figsize=(6, 6 * a.shape[0] / max(a.shape[1], 1)), dpi=100)
+    ax = fig.add_axes([0, 0, 1, 0.94])
+    ax.imshow(hs, cmap="gray", interpolation="nearest")
+    ax.set_axis_off()
+    fig.suptitle(title, fontsize=9)
+    with atomic_output(path, overwrite, param="PNG") as tmp:
+        fig.savefig(tmp, format="png")
+    plt.close(fig)
+
+
+def dtm_quality_file(input, outdir, *, g="-4:1:0.5", w="1:4:0.5", res="auto", params=None,
+                     seed=0, workers=None, overwrite=False, a_srs=None, t_srs=None, progress=None,
+                     **read_kw) -> dict:
+    """Seed 003's DTM quality sweep: a DTM per (g, w) (cell mean of the ground points, gaps
+    filled by mean8, as FUSION's GridSurfaceCreate), 12 GLCM texture descriptors each, PCA
+    (descriptors with |PC1 loading| >= 0.3), k-means with k = 3, a CSV, one hillshade PNG per
+    cluster and a recommended (g, w).
+
+    Rule for the recommendation (the seed's three groups are good, noisy and incomplete DTMs):
+    the *incomplete* cluster is the one whose DTMs keep the fewest ground points (median); of the
+    other two, the *noisy* one has the higher mean contrast and the other is *good*. The
+    recommended (g, w) is the good cluster's member nearest its centroid. ``rank`` orders all
+    DTMs by distance to the good centroid (1 = best).
+    """
+    import os
+    from concurrent.futures import ProcessPoolExecutor
+    from concurrent.futures import TimeoutError as FutureTimeout
+
+    from .ground import KrausPfeifer, kmeans, pca_select, _standardise
+
+    out = Path(outdir)
+    csv_path = out / "dtm_quality.csv"
+    if csv_path.exists() and not overwrite:
+        from .errors import OutputExistsError
+
+        raise OutputExistsError(f"{csv_path}: output exists; use -overwrite to replace it")
+    gs, ws = parse_range(g, "-g"), parse_range(w, "-w")
+    combos = [(gg, ww) for gg in gs for ww in ws]
+    if len(combos) < 3:
+        raise InputError("-g/-w: the sweep needs at least 3 combinations for 3 clusters")
+    prog = as_progress(progress)
+    src = open_input(input, a_srs=a_srs, t_srs=t_srs, **read_kw)
+    pts = src.read_all(SubProgress(prog, 0, 0.05))
+    r = resolve_resolution(src, res)
+    spec = GridSpec.from_bounds(pts.x.min(), pts.y.min(), pts.x.max(), pts.y.max(), r, crs=src.crs)
+    base = params or KrausPfeifer()
+    workers = workers or int(os.environ.get("LIDARTREES_WORKERS", 0)) or os.cpu_count() or 1
+    results = []
+    if workers > 1:
+        with ProcessPoolExecutor(workers, initializer=_sweep_init,
+                                 initargs=(pts.x, pts.y, pts.z, spec, base)) as ex:
+            futs = [ex.submit(_sweep_one, c) for c in combos]
+            for i, f in enumerate(futs):
+                while True:
+                    try:
+                        results.append(f.result(timeout=0.5))
+                        break
+                    except FutureTimeout:
+                        if prog.canceled():
+                            for ff in futs:
+                                ff.cancel()
+                            check_cancel(prog)
+                prog.update(0.05 + 0.85 * (i + 1) / len(combos), f"g={combos[i][0]} w={combos[i][1]}")
+    else:
+        _sweep_init(pts.x, pts.y, pts.z, spec, base)
+        for i, c in enumerate(combos):
+            check_cancel(prog)
+            results.append(_sweep_one(c))
+            prog.update(0.05 + 0.85 * (i + 1) / len(combos), f"g={c[0]} w={c[1]}")
+    names = list(results[0][3])
+    X = np.array([[res_[3][n] for n in names] for res_ in results])
+    sel, load, var = pca_select(X, 0.3)
+    Z = _standardise(X)[:, sel]
+    labels, cent = kmeans(Z, 3, seed=seed)
+    npts = np.array([res_[2] for res_ in results])
+    contrast = X[:, [i for i, n in enumerate(names) if n.startswith("contrast")]].mean(axis=1)
+    incomplete = int(np.argmin([np.median(npts[labels == c]) for c in range(3)]))
+    rest = [c for c in range(3) if c != incomplete]
+    good = min(rest, key=lambda c: contrast[labels == c].mean())
+    roles = {incomplete: "incomplete", good: "good"}
+    roles.update({c: "noisy" for c in rest if c != good})
+    dist = np.linalg.norm(Z - cent[good], axis=1)
+    rank = np.argsort(np.argsort(dist)) + 1
+    members = np.nonzero(labels == good)[0]
+    best = int(members[np.argmin(dist[members])])
+    out.mkdir(parents=True, exist_ok=True)
+    from .io.output import atomic_output
+
+    with atomic_output(csv_path, overwrite=True) as tmp:
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write("g,w,ground_points," + ",".join(names) + ",cluster,role,rank\n")
+            for k, (gg, ww, ng, d, _) in enumerate(results):
+                fh.write(f"{gg:g},{ww:g},{ng}," + ",".join(f"{d[n]:.6g}" for n in names)
+                         + f",{labels[k]},{roles[int(labels[k])]},{rank[k]}\n")
+    pngs = []
+    for c in range(3):
+        mem = np.nonzero(labels == c)[0]
+        dc = np.linalg.norm(Z[mem] - cent[c], axis=1)
+        k = int(mem[np.argmin(dc)])
+        pth = out / f"hillshade_cluster{c}.png"
+        write_hillshade_png(pth, results[k][4], r, overwrite=True,
+                            title=f"cluster {c} ({roles[c]}): g={results[k][0]:g} "
+                                  f"w={results[k][1]:g}")
+        pngs.append(str(pth))
+    g_eq_minus_w = [(gg, ww) for (gg, ww, *_), lab in zip(results, labels) if abs(gg + ww) < 1e-9]
+    in_good = [c for c in g_eq_minus_w if labels[combos.index(c)] == good]
+    prog.update(1.0, "done")
+    return {"output": str(csv_path), "dtms": len(results), "res": r,
+            "selected_descriptors": [names[i] for i in sel],
+            "pc1_variance": float(var[0]), "clusters": [int((labels == c).sum()) for c in range(3)],
+            "good_cluster": good, "roles": {str(c): r for c, r in roles.items()}, "recommended_g": results[best][0],
+            "recommended_w": results[best][1], "g_equals_minus_w_in_good": f"{len(in_good)}/{len(g_eq_minus_w)}",
+            "pngs": pngs}

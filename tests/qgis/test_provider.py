@@ -52,7 +52,10 @@ def test_every_algorithm_has_the_cli_parameters(qgis_app):
                 assert d.usesStaticStrings() and list(d.options()) == list(a.choices)
                 assert d.defaultValue() == a.default
             elif d.type() == "number":
-                assert d.defaultValue() == pytest.approx(float(a.default))
+                if a.default is None:
+                    assert d.defaultValue() is None
+                else:
+                    assert d.defaultValue() == pytest.approx(float(a.default))
 
 
 def test_chm_matches_cli(qgis_app, tmp_path, data):
@@ -182,3 +185,22 @@ def test_plugin_zip_installs_and_runs_in_qgis_process(qgis_app, tmp_path, data):
     assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
     res = json.loads(r.stdout[r.stdout.index("{"):])
     assert res["results"]["TREES"] == len(gpd.read_file(out, layer="tree_tops")) > 100
+
+
+def test_ground_and_dtm_quality_algorithms(qgis_app, tmp_path, data):
+    import laspy
+
+    f = data("isprs_filtertest_dev/samp21-utm.laz")
+    r = run("ground", {"INPUT": str(f), "OUTPUT": str(tmp_path / "g.laz"),
+                       "DTM_OUT": str(tmp_path / "dtm.tif")})
+    cls = np.asarray(laspy.read(r["OUTPUT"]).classification)
+    assert cls.size == 12960 and (cls == 2).sum() > 5000
+    c = tmp_path / "c.laz"
+    assert main(["ground", str(f), str(c), "-q"]) == 0
+    assert ((np.asarray(laspy.read(c).classification) == 2) == (cls == 2)).all()
+    with rasterio.open(r["DTM_OUT"]) as ds:
+        assert ds.crs.to_epsg() == 32632
+    r = run("dtm-quality", {"INPUT": str(f), "OUTDIR": str(tmp_path / "q"), "G": "-2:-1:0.5",
+                            "W": "1:2:0.5", "RES": "2"})
+    rows = (tmp_path / "q" / "dtm_quality.csv").read_text().strip().splitlines()
+    assert len(rows) == 10
