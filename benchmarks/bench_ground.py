@@ -20,6 +20,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 DATA = ROOT.parent / "shared" / "data"
 
+from lidartrees_gis.errors import InputError  # noqa: E402
 from lidartrees_gis.ground import KrausPfeifer, filter_errors, kraus_pfeifer  # noqa: E402
 from lidartrees_gis.io.points import open_points  # noqa: E402
 from lidartrees_gis.pipeline import parse_range  # noqa: E402
@@ -57,7 +58,10 @@ def main():
         errs = []
         for s in SAMPLES:
             p = pts[s]
-            gr, _ = kraus_pfeifer(p.x, p.y, p.z, KrausPfeifer(g=g, w=w))
+            try:
+                gr, _ = kraus_pfeifer(p.x, p.y, p.z, KrausPfeifer(g=g, w=w))
+            except InputError:  # every weight became 0: nothing is ground
+                gr = np.zeros(len(p), bool)
             errs.append(filter_errors(gr, p.classification == 2)["total"])
         sweep[(g, w)] = errs
     best = min(sweep, key=lambda k: np.mean(sweep[k]))

@@ -205,6 +205,34 @@ def _dtm_quality(input, outdir, **kw):
         overwrite=bool(kw.get("overwrite")), progress=kw.get("progress"), **_read_kw(kw))
 
 
+def _stem(input, prefix, **kw):
+    from . import pipeline
+    from .errors import InputError
+    from .tls.stem import DmaxParams
+
+    vals = {}
+    for n in ("section", "search", "hspacing", "vspacing", "start"):
+        if kw.get(n) is not None:
+            try:
+                vals[n] = float(kw[n])
+            except ValueError:
+                raise InputError(f"-{n}: expected a number, got {kw[n]!r}") from None
+    if kw.get("base") is not None:
+        vals["base"] = str(kw["base"])
+    return pipeline.stem_file(input, prefix, params=DmaxParams(**vals),
+                              overwrite=bool(kw.get("overwrite")), progress=kw.get("progress"),
+                              **_read_kw(kw))
+
+
+def _profile(input, output, **kw):
+    from . import pipeline
+
+    return pipeline.profile_file(input, output, bin=float(kw.get("bin") or 0.05),
+                                 sigma=float(kw.get("sigma") or 0.3),
+                                 overwrite=bool(kw.get("overwrite")), progress=kw.get("progress"),
+                                 **_read_kw(kw))
+
+
 def _demo(outdir=None, **kw):
     from .demo import run_demo
 
@@ -317,6 +345,34 @@ COMMANDS = {
          *[p for p in KP_PARAMS if p.name not in ("g", "w", "tolerance")],
          Param("seed", "float", "k-means random seed", flag="-seed", default=0, advanced=True),
          *READ, OVERWRITE), _dtm_quality),
+    "stem": Command(
+        "stem", "Terrestrial", "Trunk points, DBH and taper of one tree by the Dmax filter "
+        "(Buck et al. 2014, seed 004)",
+        (Param("input", "input", "One tree's TLS points (LAS/LAZ or XYZ)"),
+         Param("prefix", "outdir", "Output prefix: PREFIX_trunk.laz, _sections.csv/.gpkg, "
+               "_summary.json, _taper.png", required=True),
+         Param("section", "float", "Section thickness", flag="-section", default=0.05, unit="m"),
+         Param("search", "float", "Half-size of the square search region around the stem",
+               flag="-search", default=0.5, unit="m"),
+         Param("hspacing", "float", "Horizontal point spacing of the scan (sets the search-point "
+               "step)", flag="-hspacing", default=0.005, advanced=True, unit="m"),
+         Param("vspacing", "float", "Vertical point spacing of the scan", flag="-vspacing",
+               default=0.010, advanced=True, unit="m"),
+         Param("base", "str", "Base height: auto (local ground) or a z value", flag="-base",
+               default="auto", advanced=True),
+         Param("start", "float", "First section this far above the base", flag="-start",
+               default=0.5, advanced=True, unit="m"),
+         *READ, OVERWRITE), _stem),
+    "profile": Command(
+        "profile", "Terrestrial", "Roots / stem / canopy from the point-density profile "
+        "(Queiroz 2017, seed 002)",
+        (Param("input", "input", "One tree's TLS points (LAS/LAZ or XYZ)"),
+         Param("output", "output", "Output LAS/LAZ with the extra dimension part (1 roots, 2 "
+               "stem, 3 canopy); boundaries JSON/CSV and a PNG beside it"),
+         Param("bin", "float", "Slice height", flag="-bin", default=0.05, unit="m"),
+         Param("sigma", "float", "Gaussian smoothing sigma (0.1, 0.3, 0.6 tested; 0.3 best)",
+               flag="-sigma", default=0.3, unit="m"),
+         *READ, OVERWRITE), _profile, outputs=("output",)),
     "demo": Command(
         "demo", "Demo", "Generate a synthetic eucalyptus stand with known trees and process it",
         (Param("outdir", "outdir", "Output folder (default lidartrees_demo)", default=None,

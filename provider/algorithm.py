@@ -213,7 +213,13 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
         if p.kind in ("output", "outdir"):
             kind = _output_kind(self._name, p)
             if kind == "folder":
-                return self.parameterAsString(parameters, pid, context) or None
+                folder = self.parameterAsString(parameters, pid, context) or None
+                if folder and p.name == "prefix":  # the CLI takes a file prefix inside it
+                    os.makedirs(folder, exist_ok=True)
+                    base = os.path.splitext(os.path.basename(self.parameterAsFile(
+                        parameters, "INPUT", context)))[0] or "tree"
+                    return os.path.join(folder, base)
+                return folder
             if kind == "raster":
                 v = self.parameterAsOutputLayer(parameters, pid, context)
             else:

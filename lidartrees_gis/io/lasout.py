@@ -43,3 +43,30 @@ def write_classified(path, src, classification, *, overwrite=False, extra=None) 
         setattr(las, name, arr)
     with atomic_output(p, overwrite) as tmp:
         las.write(str(tmp))
+
+
+def write_points(path, x, y, z, *, crs=None, classification=None, extra=None, overwrite=False):
+    """Write points (with optional classification and extra dimensions) to a new LAS 1.4 /
+    point format 6 file (.las or .laz), 1 mm scales, atomically."""
+    import laspy
+
+    p = Path(path)
+    if p.suffix.lower() not in (".las", ".laz"):
+        raise InputError(f"OUTPUT: {p}: expected a .las or .laz file name")
+    x, y, z = (np.asarray(a, dtype=np.float64) for a in (x, y, z))
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.scales = np.array([0.001, 0.001, 0.001])
+    if x.size:
+        header.offsets = np.array([np.floor(x.min()), np.floor(y.min()), np.floor(z.min())])
+    if crs is not None:
+        header.add_crs(crs)
+    for name, arr in (extra or {}).items():
+        header.add_extra_dim(laspy.ExtraBytesParams(name=name, type=np.asarray(arr).dtype))
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = x, y, z
+    if classification is not None:
+        las.classification = np.asarray(classification, dtype=np.uint8)
+    for name, arr in (extra or {}).items():
+        setattr(las, name, np.asarray(arr))
+    with atomic_output(p, overwrite) as tmp:
+        las.write(str(tmp))

@@ -31,7 +31,12 @@ def write_gpkg(path, layers: dict, *, overwrite=False, append=False, layer_optio
             shutil.copyfile(p, tmp)
         meta = {k: (v if isinstance(v, str) else json.dumps(v, default=str))
                 for k, v in (metadata or {}).items()}
+        import warnings
+
         for name, df in layers.items():
-            pyogrio.write_dataframe(df, tmp, layer=name, driver="GPKG",
-                                    append=name in existing, layer_options=layer_options or None,
-                                    layer_metadata=meta or None)
+            with warnings.catch_warnings():  # a TLS tree in local coordinates has no CRS
+                warnings.filterwarnings("ignore", message="'crs' was not provided")
+                pyogrio.write_dataframe(df, tmp, layer=name, driver="GPKG",
+                                        append=name in existing,
+                                        layer_options=layer_options or None,
+                                        layer_metadata=meta or None)

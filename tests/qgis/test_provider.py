@@ -204,3 +204,15 @@ def test_ground_and_dtm_quality_algorithms(qgis_app, tmp_path, data):
                             "W": "1:2:0.5", "RES": "2"})
     rows = (tmp_path / "q" / "dtm_quality.csv").read_text().strip().splitlines()
     assert len(rows) == 10
+
+
+def test_stem_and_profile_algorithms(qgis_app, tmp_path, data):
+    f = data("TreeLS_tls/pine.laz")
+    r = run("stem", {"INPUT": str(f), "PREFIX": str(tmp_path / "stem")})
+    s = json.loads((tmp_path / "stem" / "pine_summary.json").read_text())
+    assert main(["stem", str(f), str(tmp_path / "cli"), "-q"]) == 0
+    c = json.loads((tmp_path / "cli_summary.json").read_text())
+    assert s["dbh_cm"] == pytest.approx(c["dbh_cm"]) and s["trunk_points"] == c["trunk_points"]
+    r = run("profile", {"INPUT": str(f), "OUTPUT": str(tmp_path / "parts.laz")})
+    b = json.loads((tmp_path / "parts_boundaries.json").read_text())
+    assert b["stem_start"] < b["canopy_start"] and Path(r["OUTPUT"]).exists()

@@ -1,0 +1,207 @@
+"""Dmax trunk filter (Buck et al. 2014, seed 004): trunk points of a single tree, section by
+section, and the diameters they give (DBH at 1.30 m, taper).
+
+For each horizontal section of ``section`` metres from the base:
+
+1. the section's points inside the search square (half-size ``search``) around the current
+   centre are taken;
+2. first section only: start at their centroid, find the centre that minimises the standard
+   deviation of the distances (seed 004) and halve the mean distance; later sections start from
+   the previous section's circle;
+3. search points are placed on that circle every α = hspacing / r radians
+   (x = xc + r sin α, y = yc + r cos α) and the nearest section point of each is selected
+   (repeats counted);
+4. a circle is fitted to the selected points, e(i) = [xc, yc, r];
+5. Dmax loop: keep the section points closer to the centre than Dmax = r + 2s (s = standard
+   deviation of the radial residuals), refit, repeat until s no longer changes;
+6. the section is accepted when enough points remain, the arc covers at least
+   ``min_coverage`` degrees, the residual spread is small (s <= ``max_spread`` r: rejects rings
+   of ground or foliage) and the radius stays within ``max_jump`` of the previous one; a
+   rejected section keeps the previous circle, and the trunk ends after ``max_gap`` rejected
+   sections in a row (whorls, occlusion).
+
+Sections start ``start`` metres above the base (0.5 m: below it, ground, litter and root
+collars spoil the circles). The base (``auto``) is the 0.1th percentile of the heights within the search square around the
+stem, i.e. the local ground.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from ..errors import InputError
+from ..progress import as_progress, check_cancel
+from .circle import Circle, fit_circle, min_std_centre
+
+
+@dataclass(frozen=True)
+class DmaxParams:
+    """Seed 004's parameters (metres) plus the acceptance rules of a section."""
+
+    section: float = 0.05
+    search: float = 0.5
+    hspacing: float = 0.005
+    vspacing: float = 0.010
+    base: str = "auto"
+    start: float = 0.5
+    min_points: int = 8
+    min_coverage: float = 60.0
+    max_jump: float = 0.3
+    max_spread: float = 0.15
+    max_gap: int = 10
+    max_iter: int = 50
+
+    def __post_init__(self):
+        for name in ("section", "search", "hspacing", "vspacing"):
+            if not getattr(self, name) > 0:
+                raise InputError(f"-{name} must be > 0 m, got {getattr(self, name)}")
+
+    def as_dict(self):
+        return asdict(self)
+
+
+def tree_base(z, base="auto") -> float:
+    """Base height: a number, or ``auto`` = the 0.1th percentile of z (robust to low noise)."""
+    if isinstance(base, (int, float)) or (isinstance(base, str) and base.strip() not in ("", "auto")):
+        try:
+            return float(base)
+        except ValueError:
+            raise InputError(f"-base: expected auto or a height, got {base!r}") from None
+    return float(np.percentile(z, 0.1))
+
+
+def dmax_loop(x, y, circ: Circle, max_iter=50):
+    """Seed 004's Dmax loop on section points ``x, y``: returns (kept mask, final circle)."""
+    keep = np.ones(x.size, bool)
+    s_prev = None
+    c = circ
+    for _ in range(max_iter):
+        d = np.hypot(x - c.xc, y - c.yc)
+        keep = d < c.r + 2.0 * max(c.s, 1e-4)
+        if keep.sum() < 3:
+            return keep, None
+        c2 = fit_circle(x[keep], y[keep], start=(c.xc, c.yc, c.r))
+        if c2 is None:
+            return keep, None
+        c = c2
+        if s_prev is not None and abs(c.s - s_prev) < 1e-5:
+            break
+        s_prev = c.s
+    d = np.hypot(x - c.xc, y - c.yc)
+    return d < c.r + 2.0 * max(c.s, 1e-4), c
+
+
+def dmax_filter(x, y, z, params: DmaxParams | None = None, *, centre=None, progress=None) -> dict:
+    """Run the Dmax trunk filter on one tree.
+
+    Parameters
+    ----------
+    x, y, z : (N,) ndarray of float
+    params : DmaxParams
+    centre : (float, float), optional
+        Stem position near the base; default: median x, y of the points 0.5-2.0 m above the base.
+
+    Returns
+    -------
+    dict with ``sections`` (list of dicts: section, z, xc, yc, r, diameter, s, points_in,
+    points_kept, selected, repeated, coverage, converged), ``trunk_index`` (indices of kept
+    points), ``trunk_section`` (their section ids), ``base``, ``tree_height``,
+    ``reached_height``, ``dbh`` (m, NaN when not measured) and ``message``.
+    """
+    from scipy.spatial import cKDTree
+
+    p = params or DmaxParams()
+    x, y, z = (np.asarray(a, float) for a in (x, y, z))
+    if x.size < p.min_points:
+        raise InputError(f"stem: {x.size} points; too few for a trunk")
+    if centre is None:
+        z0 = tree_base(z, "auto")
+        m = (z - z0 >= 0.5) & (z - z0 <= 2.0)
+        if m.sum() < p.min_points:
+            m = z - z0 <= max(2.0, 0.2 * (z.max() - z0))
+        centre = (float(np.median(x[m])), float(np.median(y[m])))
+    near = (np.abs(x - centre[0]) <= p.search) & (np.abs(y - centre[1]) <= p.search)
+    base = tree_base(z[near] if near.sum() >= p.min_points else z, p.base)
+    zz = z - base
+    height = float(zz.max())
+    n_sections = int(np.ceil(height / p.section))
+    sec_id = np.floor(zz / p.section).astype(np.int64)
+    order = np.argsort(sec_id, kind="stable")
+    bounds = np.searchsorted(sec_id[order], np.arange(n_sections + 1))
+    prog = as_progress(progress)
+    rows, trunk_idx, trunk_sec = [], [], []
+    cur = None  # current circle
+    cx, cy = centre
+    started = False
+    gap = 0
+    for i in range(int(p.start / p.section), n_sections):
+        if i % 20 == 0:
+            check_cancel(progress)
+            prog.update(i / max(n_sections, 1), f"section {i + 1}/{n_sections}")
+        idx = order[bounds[i]:bounds[i + 1]]
+        sq = (np.abs(x[idx] - cx) <= p.search) & (np.abs(y[idx] - cy) <= p.search)
+        idx = idx[sq]
+        row = {"section": i, "z": (i + 0.5) * p.section, "points_in": int(idx.size),
+               "converged": False}
+        if idx.size < p.min_points:
+            rows.append(row)
+            gap += started
+            if started and gap >= p.max_gap:
+                break
+            continue
+        sx, sy = x[idx], y[idx]
+        if cur is None:  # first section: min-std centre, radius halved
+            xc, yc, r = min_std_centre(sx, sy, (sx.mean(), sy.mean()))
+            start = Circle(xc, yc, r / 2.0, 0.0, 0.0, idx.size)
+        else:
+            start = cur
+        n_s = max(8, int(np.ceil(2 * np.pi * start.r / p.hspacing)))
+        alpha = np.arange(n_s) * (2 * np.pi / n_s)
+        sp = np.c_[start.xc + start.r * np.sin(alpha), start.yc + start.r * np.cos(alpha)]
+        _, nn = cKDTree(np.c_[sx, sy]).query(sp)
+        sel = np.unique(nn)
+        row.update(selected=int(sel.size), repeated=float(1 - sel.size / nn.size))
+        e = fit_circle(sx[sel], sy[sel], start=(start.xc, start.yc, max(start.r, 1e-3)))
+        keep, c = (None, None) if e is None else dmax_loop(sx, sy, e, p.max_iter)
+
+        def accept(keep, c):
+            good = c is not None and keep.sum() >= p.min_points and c.coverage >= p.min_coverage \
+                and c.r < p.search and c.s <= p.max_spread * c.r
+            if good and cur is not None and started:
+                good = abs(c.r - cur.r) <= p.max_jump * cur.r
+            return good
+
+        ok = accept(keep, c)
+        if not ok and started:  # branches pulled the fit away: Dmax loop from the last circle
+            keep2, c2 = dmax_loop(sx, sy, Circle(cur.xc, cur.yc, cur.r, cur.s, 0.0, 0), p.max_iter)
+            if accept(keep2, c2):
+                keep, c, ok = keep2, c2, True
+        if ok:
+            row.update(xc=c.xc, yc=c.yc, r=c.r, diameter=c.diameter, s=c.s,
+                       points_kept=int(keep.sum()), coverage=c.coverage, converged=True)
+            trunk_idx.append(idx[keep])
+            trunk_sec.append(np.full(int(keep.sum()), i, np.int64))
+            cur, cx, cy, started, gap = c, c.xc, c.yc, True, 0
+            rows.append(row)
+        else:
+            if c is not None:
+                row.update(xc=c.xc, yc=c.yc, r=c.r, diameter=c.diameter, s=c.s,
+                           coverage=c.coverage, points_kept=int(keep.sum()))
+            rows.append(row)
+            gap += started
+            if started and gap >= p.max_gap:
+                break
+    prog.update(1.0, "done")
+    conv = [r for r in rows if r["converged"]]
+    reached = max((r["z"] + p.section / 2 for r in conv), default=0.0)
+    near = [r["diameter"] for r in conv if abs(r["z"] - 1.30) <= 0.10]
+    dbh = float(np.median(near)) if len(near) >= 2 else float("nan")
+    msg = "" if conv else "no stem section could be fitted (check -base, -search and the input)"
+    if conv and not np.isfinite(dbh):
+        msg = "the trunk filter did not reach 1.30 m with at least two sections; no DBH"
+    return {"sections": rows, "trunk_index": np.concatenate(trunk_idx) if trunk_idx else np.empty(0, np.int64),
+            "trunk_section": np.concatenate(trunk_sec) if trunk_sec else np.empty(0, np.int64),
+            "base": base, "tree_height": height, "reached_height": reached,
+            "reached_percent": 100.0 * reached / height if height > 0 else 0.0, "dbh": dbh,
+            "message": msg, "params": p.as_dict()}
