@@ -41,6 +41,14 @@ REFERENCES = {
              "after Hyyppä et al. (2001) (Annex 2), Vincent & Soille (1991) watershed (Annex 1). "
              "Pantaleão, Dutra & Macedo, TreeX (seed 001): moving window + priority growing.",
     "compare": "Castro (2006), seed 000, Table 1.",
+    "ground": "Kraus, K. & Pfeifer, N. (1998) robust interpolation, as in FUSION's GroundFilter; "
+              "parameters for eucalyptus by Leite et al. (seed 003).",
+    "dtm-quality": "Leite et al. (seed 003): 77 (g, w) DTMs judged by GLCM texture, PCA and "
+                   "k-means.",
+    "stem": "Buck, A. L. B. et al. (2014), Dmax filter for trunk points of Pinus in TLS clouds "
+            "(seed 004).",
+    "profile": "Queiroz (2017), vertical segmentation of mangrove trees into roots, stem and "
+               "canopy from the point-density profile (seed 002).",
 }
 _KEEP = []  # post-processors must outlive processAlgorithm
 

@@ -34,6 +34,8 @@ def test_provider_lists_every_command(qgis_app):
         ok, msg = a.canExecute()
         assert ok, msg
         assert a.group() and a.shortHelpString()
+        if a.name() != "demo" and a.name() != "info":
+            assert "Reference:" in a.shortHelpString(), a.name()
 
 
 def test_every_algorithm_has_the_cli_parameters(qgis_app):
