@@ -68,3 +68,68 @@ _accumulate_nb = _jit(_accumulate_py)
 def accumulate(x, y, z, left, bottom, res, height, width, eps, count, mx, mn, sm) -> int:
     """Fused gridding kernel (numba only; callers use the numpy path when it is missing)."""
     return _accumulate_nb(x, y, z, left, bottom, res, height, width, eps, count, mx, mn, sm)
+
+
+def _raster_triangles_py(px, py, pz, tri, max_edge, left, top, res, height, width, out):
+    """Linear interpolation of each triangle at the cell centres it covers, kept where higher
+    than ``out`` (NaN in ``out`` counts as lowest). Triangles with an edge longer than
+    ``max_edge`` (> 0) are skipped. Returns the number of triangles drawn."""
+    drawn = 0
+    me2 = max_edge * max_edge
+    for t in range(tri.shape[0]):
+        a, b, c = tri[t, 0], tri[t, 1], tri[t, 2]
+        ax, ay, az = px[a], py[a], pz[a]
+        bx, by, bz = px[b], py[b], pz[b]
+        cx, cy, cz = px[c], py[c], pz[c]
+        if max_edge > 0.0:
+            if ((ax - bx) ** 2 + (ay - by) ** 2 > me2 or (bx - cx) ** 2 + (by - cy) ** 2 > me2
+                    or (cx - ax) ** 2 + (cy - ay) ** 2 > me2):
+                continue
+        det = (by - cy) * (ax - cx) + (cx - bx) * (ay - cy)
+        if det == 0.0:
+            continue
+        xmin = min(ax, bx, cx)
+        xmax = max(ax, bx, cx)
+        ymin = min(ay, by, cy)
+        ymax = max(ay, by, cy)
+        # columns whose centre x = left + (j + 0.5) res lies in [xmin, xmax]
+        j0 = int(np.ceil((xmin - left) / res - 0.5))
+        j1 = int(np.floor((xmax - left) / res - 0.5))
+        i0 = int(np.ceil((top - ymax) / res - 0.5))
+        i1 = int(np.floor((top - ymin) / res - 0.5))
+        if j0 < 0:
+            j0 = 0
+        if i0 < 0:
+            i0 = 0
+        if j1 > width - 1:
+            j1 = width - 1
+        if i1 > height - 1:
+            i1 = height - 1
+        drawn += 1
+        eps = -1e-9 * abs(det)
+        for i in range(i0, i1 + 1):
+            yc = top - (i + 0.5) * res
+            for j in range(j0, j1 + 1):
+                xc = left + (j + 0.5) * res
+                l1 = (by - cy) * (xc - cx) + (cx - bx) * (yc - cy)
+                l2 = (cy - ay) * (xc - cx) + (ax - cx) * (yc - cy)
+                if det < 0:
+                    l1, l2, d = -l1, -l2, -det
+                else:
+                    d = det
+                l3 = d - l1 - l2
+                if l1 < eps or l2 < eps or l3 < eps:
+                    continue
+                v = (l1 * az + l2 * bz + l3 * cz) / d
+                cur = out[i, j]
+                if not (cur >= v):  # also when cur is NaN
+                    out[i, j] = v
+    return drawn
+
+
+_raster_triangles_nb = _jit(_raster_triangles_py)
+
+
+def raster_triangles(px, py, pz, tri, max_edge, left, top, res, height, width, out) -> int:
+    """Compiled triangle rasteriser (numba only; callers use the numpy path when missing)."""
+    return _raster_triangles_nb(px, py, pz, tri, max_edge, left, top, res, height, width, out)

@@ -64,7 +64,7 @@ COLUMNS = Param("columns", "str", "XYZ column names in order, e.g. x,y,z,intensi
 SKIP_INVALID = Param("skip_invalid", "bool", "Skip malformed XYZ lines and report how many, instead "
                      "of failing", flag="--skip-invalid", default=False, advanced=True)
 RES = Param("res", "res", "Cell size in metres, or auto = sqrt(1/n) from the point density n "
-            "(seed 003)", flag="-tr", aliases=("--resolution",), required=True, unit="m")
+            "(seed 003)", flag="-tr", aliases=("--resolution",), default="auto", unit="m")
 FILL = Param("fill", "choice", "Gap filling: mean8 = empty cells take the mean of their filled "
              "8-neighbours, repeated until none is empty (seed 000); none = leave nodata",
              flag="-fill", choices=("mean8", "none"), default="mean8")
@@ -89,8 +89,28 @@ KP_PARAMS = (
     Param("tolerance", "float", "Final ground = |residual| <= tolerance (FUSION /tolerance); "
           "default: residual <= g + w", flag="-tolerance", advanced=True, unit="m"),
 )
-CHM_RES = Param("res", "res", "Cell size of the CHM built from points, m, or auto", flag="-tr",
-                aliases=("--resolution",), unit="m")
+CHM_RES = Param("res", "res", "Cell size of the CHM built from points, m, or auto = "
+                "max(sqrt(1/n), 0.25) from the point density n, rounded to 0.05 m", flag="-tr",
+                aliases=("--resolution",), default="auto", unit="m")
+DROP_CLASS = Param("drop_class", "str", "Leave out points of these LAS classes (comma list; "
+                   "default 7,18 = low and high noise; none keeps all)", flag="-drop_class",
+                   default="7,18", advanced=True)
+KEEP_CLASS = Param("keep_class", "str", "Use only points of these LAS classes (comma list, e.g. "
+                   "1,2,3,4,5)", flag="-keep_class", advanced=True)
+CLASSES = (DROP_CLASS, KEEP_CLASS)
+DTM_AUTO = Param("dtm", "str", "DTM: auto = class-2 ground points if the file has them, else "
+                 "lowest:5; ground = class-2 points interpolated (TIN); lowest:R = lowest point "
+                 "per R m cell, interpolated; kp or kp:G:W = Kraus & Pfeifer ground filter "
+                 "(Leite et al.); min = lowest point per cell (Castro 2006; only where every cell "
+                 "holds ground returns); none = heights already normalised; or a DTM GeoTIFF path",
+                 flag="-dtm", default="auto")
+CHM_KIND = Param("chm", "choice", "CHM from points: pitfree = pit-free CHM of the first returns "
+                 "(Khosravipour et al. 2014); max = highest point per cell, gaps filled "
+                 "(Castro 2006); tin = one TIN of the first returns", flag="-chm",
+                 choices=("pitfree", "max", "tin"), default="pitfree")
+KEEP_OUTLIERS = Param("keep_outliers", "bool", "Keep isolated returns far above the canopy "
+                      "(birds, clouds, unclassified noise), which are removed by default",
+                      flag="-keep_outliers", default=False, advanced=True)
 
 
 def _info(input, **kw):
@@ -105,11 +125,17 @@ def _read_kw(kw):
     return {k: kw[k] for k in keys if kw.get(k) is not None}
 
 
+def _classes(kw):
+    return {"drop_class": kw.get("drop_class") if kw.get("drop_class") is not None else "7,18",
+            "keep_class": kw.get("keep_class") or None}
+
+
 def _grid(input, output, **kw):
     from . import pipeline
 
-    return pipeline.grid_file(input, output, res=kw["res"], stat=kw.get("stat") or "max",
-                              fill=kw.get("fill") or "none",
+    return pipeline.grid_file(input, output, res=kw.get("res") or "auto",
+                              stat=kw.get("stat") or "max", fill=kw.get("fill") or "none",
+                              **_classes(kw),
                               creation_options=kw.get("creation_options"),
                               overwrite=bool(kw.get("overwrite")), progress=kw.get("progress"),
                               **_read_kw(kw))
@@ -118,7 +144,9 @@ def _grid(input, output, **kw):
 def _chm(input, output, **kw):
     from . import pipeline
 
-    return pipeline.chm_file(input, output, res=kw["res"], dtm=kw.get("dtm") or "min",
+    return pipeline.chm_file(input, output, res=kw.get("res") or "auto",
+                             dtm=kw.get("dtm") or "auto", chm=kw.get("chm") or "pitfree",
+                             outliers=not kw.get("keep_outliers"), **_classes(kw),
                              fill=kw.get("fill") or "mean8", dsm_out=kw.get("dsm_out"),
                              dtm_out=kw.get("dtm_out"), creation_options=kw.get("creation_options"),
                              overwrite=bool(kw.get("overwrite")), progress=kw.get("progress"),
@@ -129,15 +157,17 @@ def _tree_params(kw):
     from .trees import TreeParams
 
     names = ("method", "smooth", "min_height", "step", "tops", "mean_crown_area", "sd_crown_area",
-             "max_crown_area", "min_crown_height", "connectivity")
-    conv = {"connectivity": int}
+             "max_crown_area", "min_crown_height", "connectivity", "spacing", "crown_scale",
+             "window_factor", "treex_centred")
+    conv = {"connectivity": int, "treex_centred": bool}
+    text = ("method", "smooth", "tops", "spacing")
     vals = {}
     for n in names:
         v = kw.get(n)
-        if v is None:
+        if v is None or (n in text and v == ""):
             continue
         try:
-            vals[n] = conv.get(n, float)(v) if n not in ("method", "smooth", "tops") else v
+            vals[n] = conv.get(n, float)(v) if n not in text else v
         except ValueError:
             from .errors import InputError
 
@@ -150,7 +180,9 @@ def _trees(input, output, **kw):
     from .io.raster import parse_kv
 
     r = pipeline.trees_file(
-        input, output, res=kw.get("res"), params=_tree_params(kw), dtm=kw.get("dtm") or "auto",
+        input, output, res=kw.get("res") or "auto", params=_tree_params(kw),
+        dtm=kw.get("dtm") or "auto", chm=kw.get("chm") or "pitfree",
+        outliers=not kw.get("keep_outliers"), **_classes(kw),
         fill=kw.get("fill") or "mean8", nln=kw.get("nln") or "",
         layer_options=parse_kv(kw.get("layer_options"), "-lco"), overwrite=bool(kw.get("overwrite")),
         append=bool(kw.get("append")), png=kw.get("png"), csv=kw.get("csv"),
@@ -161,7 +193,9 @@ def _trees(input, output, **kw):
 def _compare(input, output, **kw):
     from . import pipeline
 
-    r = pipeline.compare_file(input, output, res=kw.get("res"), dtm=kw.get("dtm") or "auto",
+    r = pipeline.compare_file(input, output, res=kw.get("res") or "auto",
+                              dtm=kw.get("dtm") or "auto", chm=kw.get("chm") or "pitfree",
+                              strict=bool(kw.get("strict")), **_classes(kw),
                               fill=kw.get("fill") or "mean8",
                               min_height=float(kw.get("min_height") or 2.0),
                               step=float(kw.get("step") or 0.1), overwrite=bool(kw.get("overwrite")),
@@ -233,6 +267,21 @@ def _profile(input, output, **kw):
                                  **_read_kw(kw))
 
 
+def _evaluate(detected, reference, **kw):
+    from .evaluate import evaluate_file
+    from .errors import InputError
+
+    try:
+        md = float(kw.get("max_dist") if kw.get("max_dist") is not None else 2.5)
+        mz = float(kw.get("max_dz") if kw.get("max_dz") is not None else 5.0)
+    except ValueError:
+        raise InputError("-max_dist/-max_dz: expected numbers (m)") from None
+    r = evaluate_file(detected, reference, kw.get("report"), layer=kw.get("layer") or None,
+                      ref_layer=kw.get("ref_layer") or None, max_dist=md, max_dz=mz,
+                      overwrite=bool(kw.get("overwrite")), progress=kw.get("progress"))
+    return r
+
+
 def _demo(outdir=None, **kw):
     from .demo import run_demo
 
@@ -250,16 +299,11 @@ COMMANDS = {
          Param("stat", "choice", "Per-cell statistic of z", flag="-stat",
                choices=("max", "min", "mean", "count"), default="max"),
          Param("fill", "choice", FILL.help, flag="-fill", choices=("mean8", "none"), default="none"),
-         *READ, CO, OVERWRITE), _grid, outputs=("output",)),
+         *CLASSES, *READ, CO, OVERWRITE), _grid, outputs=("output",)),
     "chm": Command(
         "chm", "Rasters", "Canopy height model CHM = DSM (highest point per cell) - DTM",
-        (INPUT, Param("output", "output", "Output CHM GeoTIFF"), RES,
-         Param("dtm", "str", "DTM: min = lowest point per cell (seed 000); ground = class-2 points "
-               "interpolated (TIN); lowest:R = lowest point per R m cell, interpolated; kp or "
-               "kp:G:W = Kraus & Pfeifer ground filter (seed 003); none = "
-               "heights already normalised; auto = ground if classified else lowest:5; or a DTM "
-               "GeoTIFF path", flag="-dtm", default="min"),
-         FILL,
+        (INPUT, Param("output", "output", "Output CHM GeoTIFF"), CHM_RES, DTM_AUTO, CHM_KIND,
+         FILL, *CLASSES, KEEP_OUTLIERS,
          Param("dsm_out", "output", "Also write the DSM here", flag="-dsm_out", advanced=True),
          Param("dtm_out", "output", "Also write the DTM here", flag="-dtm_out", advanced=True),
          *READ, CO, OVERWRITE), _chm, outputs=("output", "dsm_out", "dtm_out")),
@@ -272,16 +316,27 @@ COMMANDS = {
                "000); treex = TreeX priority growing (seed 001); watershed = Vincent-Soille on the "
                "inverted CHM (seed 000); mcws = marker-controlled watershed from the tops",
                flag="-method", choices=("rg", "treex", "watershed", "mcws"), default="rg"),
-         Param("smooth", "str", "CHM filter: none, gauss3 (seed 000 fine mask), gauss5 (coarse "
-               "mask), gauss:SIGMA (m), or OP:ELEMENT[:SIZE], OP in erode, dilate, open, close, "
-               "abefec, fecabe, fecabefec, abefecabe; ELEMENT cross, square, rhombus",
-               flag="-smooth", default="none"),
+         Param("smooth", "str", "CHM filter: auto = a Gaussian sized from the crown scale "
+               "(measured on the CHM, or from -spacing); none; gauss3 (Castro's fine mask); "
+               "gauss5 (coarse mask); gauss:SIGMA (m); or OP:ELEMENT[:SIZE], OP in erode, "
+               "dilate, open, close, abefec, fecabe, fecabefec, abefecabe; ELEMENT cross, "
+               "square, rhombus", flag="-smooth", default="auto"),
          Param("min_height", "float", "Minimum tree height", flag="-min_height", default=2.0,
                unit="m"),
-         Param("tops", "choice", "Tree tops: lm = 8-neighbour maxima (seed 000), treex = TreeX "
-               "window (seed 001), vwf = height-dependent window; auto = treex for -method treex, "
-               "else lm", flag="-tops", choices=("auto", "lm", "treex", "vwf"), default="auto",
-               advanced=True),
+         Param("spacing", "str", "Plantation mode: planting spacing ROWSxTREES in m, e.g. 3x2; "
+               "sets the crown scale and adds missing trees (gaps layer) and stocking to the "
+               "output", flag="-spacing"),
+         Param("tops", "choice", "Tree tops: aw = adaptive window (crown scale x height); lm = "
+               "8-neighbour maxima, one per plateau (Castro 2006); strict = strictly higher than "
+               "all 8 neighbours (Castro's literal rule); treex = TreeX window; vwf = window "
+               "0.1 h + 0.5 m; auto = treex for -method treex, aw with -smooth auto, else lm",
+               flag="-tops", choices=("auto", "aw", "lm", "strict", "treex", "vwf"),
+               default="auto", advanced=True),
+         Param("crown_scale", "float", "Crown scale for -smooth auto and -tops aw (default: "
+               "measured on the CHM, or 0.3 x the smaller -spacing)", flag="-crown_scale",
+               advanced=True, unit="m"),
+         Param("window_factor", "float", "Adaptive window radius for a tree of the dominant "
+               "height, in crown scales", flag="-window_factor", default=0.9, advanced=True),
          Param("step", "float", "Region-growing threshold step (ajuste, seed 000 Annex 2)",
                flag="-step", default=0.1, advanced=True, unit="m"),
          Param("mean_crown_area", "float", "TreeX window: mean crown area", flag="-mean_crown_area",
@@ -294,8 +349,14 @@ COMMANDS = {
                flag="-min_crown_height", default=2.0, advanced=True, unit="m"),
          Param("connectivity", "choice", "TreeX growth neighbourhood", flag="-connectivity",
                choices=("4", "8"), default="4", advanced=True),
+         Param("treex_centred", "bool", "TreeX: also require each top to be the highest of the "
+               "window centred on it (drops one of two close trees; not in the seed)",
+               flag="-treex_centred", default=False, advanced=True),
          Param("dtm", "str", "DTM for points input (see chm); default auto = class-2 ground "
                "points if any, else lowest:5", flag="-dtm", default="auto", advanced=True),
+         Param("chm", "choice", CHM_KIND.help, flag="-chm", choices=CHM_KIND.choices,
+               default="pitfree", advanced=True),
+         *CLASSES, KEEP_OUTLIERS,
          Param("fill", "choice", FILL.help, flag="-fill", choices=("mean8", "none"),
                default="mean8", advanced=True),
          Param("nln", "str", "Prefix for the layer names (tree_tops, crowns, summary)",
@@ -318,8 +379,13 @@ COMMANDS = {
                unit="m"),
          Param("step", "float", "Region-growing threshold step", flag="-step", default=0.1,
                advanced=True, unit="m"),
+         Param("strict", "bool", "Tops strictly higher than all 8 neighbours (Castro's literal "
+               "rule: a flat top gives none)", flag="-strict", default=False),
          Param("dtm", "str", "DTM for points input (see chm)", flag="-dtm", default="auto",
                advanced=True),
+         Param("chm", "choice", CHM_KIND.help, flag="-chm", choices=CHM_KIND.choices,
+               default="pitfree", advanced=True),
+         *CLASSES,
          Param("fill", "choice", FILL.help, flag="-fill", choices=("mean8", "none"),
                default="mean8", advanced=True),
          *READ, OVERWRITE), _compare, outputs=("output",)),
@@ -373,6 +439,24 @@ COMMANDS = {
          Param("sigma", "float", "Gaussian smoothing sigma (0.1, 0.3, 0.6 tested; 0.3 best)",
                flag="-sigma", default=0.3, unit="m"),
          *READ, OVERWRITE), _profile, outputs=("output",)),
+    "evaluate": Command(
+        "evaluate", "Trees", "Accuracy of tree tops against reference trees (Eysn et al. 2015 "
+        "matching): recall, precision, F, height bias and RMSE",
+        (Param("detected", "input", "Detected trees: a GeoPackage from trees (layer tree_tops) or "
+               "a CSV with x, y, height"),
+         Param("reference", "input", "Reference trees: CSV with x, y and optionally height, or "
+               "a vector file of points"),
+         Param("report", "output", "Also write the report (.json) or the matched pairs (.csv)",
+               flag="-o"),
+         Param("max_dist", "float", "Largest horizontal distance of a match", flag="-max_dist",
+               default=2.5, unit="m"),
+         Param("max_dz", "float", "Largest height difference of a match", flag="-max_dz",
+               default=5.0, unit="m"),
+         Param("layer", "str", "Layer of the detected file (default: the tree_tops layer)",
+               flag="-layer", advanced=True),
+         Param("ref_layer", "str", "Layer of the reference file (default: the first)",
+               flag="-ref_layer", advanced=True),
+         OVERWRITE), _evaluate, outputs=("report",)),
     "demo": Command(
         "demo", "Demo", "Generate a synthetic eucalyptus stand with known trees and process it",
         (Param("outdir", "outdir", "Output folder (default lidartrees_demo)", default=None,

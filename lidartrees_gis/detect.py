@@ -47,7 +47,7 @@ def _one_per_component(mask, values):
     return rr[o].astype(np.int64), ccol[o].astype(np.int64)
 
 
-def local_maxima(chm, *, min_height: float = 2.0):
+def local_maxima(chm, *, min_height: float = 2.0, strict: bool = False):
     """Tree tops as regional maxima over the 8-neighbourhood (seed 000).
 
     A cell is a top when it is higher than all its 8 neighbours and at least ``min_height``.
@@ -61,6 +61,9 @@ def local_maxima(chm, *, min_height: float = 2.0):
     chm : (M, N) ndarray of float
     min_height : float
         Minimum tree height (m), 2 m in seed 000.
+    strict : bool
+        Castro's literal rule: a top must be strictly higher than all 8 neighbours, so a flat
+        top (two or more equal highest cells) gives no top at all.
 
     Returns
     -------
@@ -77,13 +80,20 @@ def local_maxima(chm, *, min_height: float = 2.0):
     a = _prep(chm)
     if not np.isfinite(a).any():
         return np.empty(0, np.int64), np.empty(0, np.int64)
+    if strict:
+        fp = np.ones((3, 3), bool)
+        fp[1, 1] = False
+        nb = ndimage.maximum_filter(a, footprint=fp, mode="constant", cval=-np.inf)
+        keep = np.isfinite(a) & (a > nb) & (a >= min_height)
+        r, c = np.nonzero(keep)
+        return r.astype(np.int64), c.astype(np.int64)
     reg = _lm(a, connectivity=2, allow_borders=True)
     reg &= np.isfinite(a) & (a >= min_height)
     return _one_per_component(reg, a)
 
 
 def treex_maxima(chm, res: float, *, mean_crown_area: float, sd_crown_area: float,
-                 min_height: float = 2.0):
+                 min_height: float = 2.0, centred: bool = False):
     """TreeX tree tops (seed 001): a search window moved over the CHM.
 
     Reading of "a window with dimension equivalent to the mean crown area, moved by the crown-area
@@ -91,9 +101,12 @@ def treex_maxima(chm, res: float, *, mean_crown_area: float, sd_crown_area: floa
     ``round(sqrt(mean_crown_area) / res)`` cells, at least 1), and it moves by the side of the
     square whose area equals ``sd_crown_area`` (``round(sqrt(sd_crown_area) / res)`` cells, at
     least 1). The highest cell of each window position is a candidate (first in row order on
-    ties); a candidate is kept when it is at least ``min_height`` and also the highest cell of the
-    same-size window centred on it (this rejects the slope cells that win windows cut across a
-    crown's edge). One top per plateau as in :func:`local_maxima`.
+    ties) and is kept when it is at least ``min_height`` and a local maximum of its 8
+    neighbours (a window cut across a crown's edge is otherwise won by a slope cell). As the seed
+    says, nothing else is asked: two trees 2 m apart in one window position are both found by
+    the neighbouring positions. ``centred=True`` adds a stricter test (the candidate must also be
+    the highest of the same-size window centred on it), which drops one of two close trees.
+    One top per plateau as in :func:`local_maxima`.
     """
     if not (mean_crown_area > 0 and sd_crown_area > 0):
         raise InputError("-mean_crown_area and -sd_crown_area must be > 0 (m²)")
@@ -113,8 +126,9 @@ def treex_maxima(chm, res: float, *, mean_crown_area: float, sd_crown_area: floa
         rr = r0 + k // w
         cc = np.arange(0, W, step) + k % w
         cand[rr[ok], cc[ok]] = True
-    centred = ndimage.maximum_filter(a, size=w, mode="constant", cval=-np.inf)
-    keep = cand & (a >= centred) & (a >= min_height) & np.isfinite(a)
+    size = w if centred else 3
+    around = ndimage.maximum_filter(a, size=size, mode="constant", cval=-np.inf)
+    keep = cand & (a >= around) & (a >= min_height) & np.isfinite(a)
     return _one_per_component(keep, a)
 
 
@@ -147,3 +161,70 @@ def variable_window_maxima(chm, res: float, *, min_height: float = 2.0, window=d
         sel = valid & (radius_cells == r)
         keep |= sel & (a >= mf)
     return _one_per_component(keep, a)
+
+
+def window_radius(h, res: float, *, crown_scale: float, dominant_height: float,
+                  factor: float = 1.0):
+    """Search radius in cells of :func:`adaptive_maxima` for heights ``h`` (m):
+    ``factor · crown_scale · sqrt(h / dominant_height) / res``, at least one cell."""
+    hd = max(float(dominant_height), 1e-6)
+    rel = np.sqrt(np.clip(np.asarray(h, np.float64), 0.0, None) / hd)
+    return np.maximum(1.0, factor * crown_scale * rel / res)
+
+
+def adaptive_maxima(chm, res: float, *, crown_scale: float, dominant_height: float,
+                    min_height: float = 2.0, factor: float = 1.0, batch: int = 20000):
+    """Tree tops with a circular window scaled by the stand's crown size and the tree's height.
+
+    A cell is a top when it is at least ``min_height`` and the highest cell within
+    ``r = factor · crown_scale · sqrt(h / dominant_height)`` metres (at least one cell), ``h`` being
+    its own height: tall trees, whose crowns are wide, search further than the small trees
+    between them, and the whole window follows the crown size measured on the stand
+    (:func:`lidartrees_gis.chm.crown_scale`) rather than a fixed function of height, so a
+    3 x 2 m eucalyptus stand and a conifer forest of the same height both come out right.
+    One top per plateau as in :func:`local_maxima`.
+
+    Parameters
+    ----------
+    chm : (M, N) ndarray of float
+    res : float
+        Cell size (m).
+    crown_scale : float
+        Crown scale of the stand (m).
+    dominant_height : float
+        Dominant height of the stand (m), e.g. the 95th percentile of the canopy heights.
+    min_height : float
+    factor : float
+        Radius in crown scales for a tree of the dominant height.
+    batch : int
+        Candidates tested at once (memory bound).
+    """
+    a = _prep(chm)
+    if not np.isfinite(a).any():
+        return np.empty(0, np.int64), np.empty(0, np.int64)
+    from skimage.morphology import local_maxima as _lm
+
+    cand = _lm(a, connectivity=2, allow_borders=True) & np.isfinite(a) & (a >= min_height)
+    r, c = np.nonzero(cand)
+    if r.size == 0:
+        return np.empty(0, np.int64), np.empty(0, np.int64)
+    rad = window_radius(a[r, c], res, crown_scale=crown_scale, dominant_height=dominant_height,
+                        factor=factor)
+    rq = np.round(rad * 2.0) / 2.0  # half-cell steps
+    kmax = int(np.ceil(rq.max()))
+    pad = np.pad(a, kmax, constant_values=-np.inf)
+    keep = np.zeros(r.size, bool)
+    for rv in np.unique(rq):
+        k = int(np.ceil(rv))
+        yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
+        disc = ((xx ** 2 + yy ** 2) <= rv * rv + 1e-9).ravel()
+        dy, dx = yy.ravel()[disc], xx.ravel()[disc]
+        idx = np.nonzero(rq == rv)[0]
+        for s0 in range(0, idx.size, batch):
+            sel = idx[s0:s0 + batch]
+            rr = r[sel][:, None] + kmax + dy[None, :]
+            cc = c[sel][:, None] + kmax + dx[None, :]
+            keep[sel] = a[r[sel], c[sel]] >= pad[rr, cc].max(axis=1)
+    mask = np.zeros(a.shape, bool)
+    mask[r[keep], c[keep]] = True
+    return _one_per_component(mask, a)

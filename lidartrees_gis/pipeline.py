@@ -54,17 +54,22 @@ def info(src: PointSource, progress=None) -> dict:
     return out
 
 
-def resolve_resolution(src: PointSource, res, progress=None) -> float:
-    """A number, or ``"auto"`` = sqrt(1/n) from the point density n (seed 003)."""
-    if isinstance(res, str) and res.strip().lower() == "auto":
+def resolve_resolution(src: PointSource, res, progress=None, *, rule: str = "density") -> float:
+    """A number, or ``"auto"``: ``rule="density"`` gives seed 003's sqrt(1/n) (grid, ground,
+    DTMs); ``rule="chm"`` the CHM rule of :func:`lidartrees_gis.chm.chm_resolution`
+    (max(sqrt(2/n), 0.25 m), for crown detection)."""
+    if res is None or (isinstance(res, str) and res.strip().lower() == "auto"):
+        if res is None and rule != "chm":
+            raise InputError("-tr: a resolution is required (a number in metres, or auto)")
+        from .chm import chm_resolution
+
+        fn = chm_resolution if rule == "chm" else auto_resolution
         hb = src.header_bounds()
         if hb is not None and src.count_hint:
             area = (hb[2] - hb[0]) * (hb[3] - hb[1])
-            return auto_resolution(src.count_hint, area)
+            return fn(src.count_hint, area)
         st = src.scan(progress)
-        return auto_resolution(st.count, st.area)
-    if res is None:
-        raise InputError("-tr: a resolution is required (a number in metres, or auto)")
+        return fn(st.count, st.area)
     return check_resolution(res)
 
 
@@ -114,32 +119,56 @@ class DtmMethod:
         return {"lowest": f"lowest:{self.size:g}", "file": self.path}.get(self.kind, self.kind)
 
 
-def compute_surfaces(src: PointSource, res, *, dtm="min", fill="mean8", progress=None) -> dict:
-    """DSM (max z), DTM and CHM = DSM - DTM on one aligned grid, in one pass over the points.
+def _bilinear(arr, spec: GridSpec, x, y):
+    """Bilinear sample of a grid at map coordinates (edges clamped)."""
+    from scipy import ndimage
+
+    col = (np.asarray(x) - spec.left) / spec.res - 0.5
+    row = (spec.top - np.asarray(y)) / spec.res - 0.5
+    return ndimage.map_coordinates(np.asarray(arr, np.float64), [row, col], order=1, mode="nearest")
+
+
+def compute_surfaces(src: PointSource, res, *, dtm="auto", fill="mean8", chm="max",
+                     outliers=True, res_rule="chm", max_edge=None, progress=None) -> dict:
+    """DSM, DTM and CHM on one aligned grid.
 
     Parameters
     ----------
     src : PointSource
+        Points (its class filter, e.g. noise classes 7 and 18 dropped, applies).
     res : float or "auto"
-        Cell size in metres.
+        Cell size in metres; ``auto`` by ``res_rule`` (see :func:`resolve_resolution`).
     dtm : str
-        ``min`` lowest point per cell (seed 000's simple method); ``ground`` lowest class-2 point
-        per cell, linearly interpolated (TIN) over the grid; ``lowest:R`` the lowest point of each R-metre
-        cell, at its own position, interpolated (TIN); ``kp`` or ``kp:G:W`` ground points of the
-        Kraus & Pfeifer filter (seed 003; defaults g = -2, w = 2.5), interpolated (TIN); ``none`` heights are already normalised (DTM = 0); ``auto``
-        ``ground`` when the file has class-2 points, else ``lowest:5``; or a DTM GeoTIFF path,
-        resampled bilinearly onto the grid.
+        ``auto`` (default) ``ground`` when the file has class-2 points, else ``lowest:5``;
+        ``ground`` lowest class-2 point per cell, linearly interpolated (TIN) over the grid;
+        ``lowest:R`` the lowest point of each R-metre cell, at its own position, interpolated
+        (TIN); ``kp`` or ``kp:G:W`` ground points of the Kraus & Pfeifer filter (seed 003;
+        defaults g = -2, w = 2.5), interpolated (TIN); ``min`` lowest point per cell (seed 000's
+        simple method, only meaningful where every cell holds a ground return); ``none`` heights
+        are already normalised (DTM = 0); or a DTM GeoTIFF path, resampled bilinearly.
     fill : {"mean8", "none"}
-        Gap filling of the DSM and of the ``min`` DTM (seed 000).
+        Gap filling of the DSM, CHM and of the ``min`` DTM (seed 000).
+    chm : {"max", "pitfree", "tin"}
+        ``max`` highest point per cell minus the DTM (seed 000); ``pitfree`` Khosravipour et al.
+        (2014) pit-free CHM of the first returns' heights above the DTM; ``tin`` one TIN of the
+        first returns (lidR ``dsmtin``).
+    outliers : bool
+        Remove isolated returns far above the canopy (:func:`lidartrees_gis.chm.canopy_outliers`).
 
     Returns
     -------
-    dict with ``dsm``, ``dtm``, ``chm`` (float64 arrays, NaN = nodata), ``spec``, ``res``,
-    ``dtm_method``, ``points``.
+    dict with ``dsm``, ``dtm``, ``chm`` (float64 arrays, NaN = nodata), ``heights`` (the CHM
+    or, where higher, the highest return above ground in the cell: what tree heights are read
+    from), ``spec``, ``res``, ``dtm_method``, ``chm_method``, ``points``, ``dropped`` (points per
+    dropped class), ``outlier_cells`` and ``outlier_points``.
     """
+    from .chm import CHM_KINDS, canopy_outliers, pitfree_chm, pitfree_edge, tin_surface
+
     prog = as_progress(progress)
+    if chm not in CHM_KINDS:
+        raise InputError(f"-chm: unknown CHM {chm!r}; use {', '.join(CHM_KINDS)}")
     method = DtmMethod.parse(dtm)
-    res = resolve_resolution(src, res, SubProgress(prog, 0.0, 0.3))
+    res = resolve_resolution(src, res, SubProgress(prog, 0.0, 0.3), rule=res_rule)
     spec = grid_spec_for(src, res, SubProgress(prog, 0.0, 0.3))
     stats = ("max", "min") if method.kind == "min" else ("max",)
     acc = GridAccumulator(spec, stats)
@@ -149,8 +178,10 @@ def compute_surfaces(src: PointSource, res, *, dtm="min", fill="mean8", progress
         size = method.size or 5.0
         b = spec.bounds
         lacc = LowestPoints(GridSpec.from_bounds(*b, size, crs=spec.crs))
+    keep_pts = chm != "max"
+    kept = []
     n = 0
-    for chunk in src.chunks(SubProgress(prog, 0.3, 0.85)):
+    for chunk in src.chunks(SubProgress(prog, 0.3, 0.8)):
         n += len(chunk)
         acc.add(chunk.x, chunk.y, chunk.z)
         if gacc is not None and chunk.classification is not None:
@@ -159,15 +190,19 @@ def compute_surfaces(src: PointSource, res, *, dtm="min", fill="mean8", progress
                 gacc.add(chunk.x[g], chunk.y[g], chunk.z[g])
         if lacc is not None:
             lacc.add(chunk.x, chunk.y, chunk.z)
+        if keep_pts:
+            first = chunk.return_number
+            sel = slice(None) if first is None else (first <= 1)
+            kept.append((chunk.x[sel], chunk.y[sel], chunk.z[sel]))
     if n == 0:
-        raise InputError(f"{src.path}: no points")
+        raise InputError(f"{src.path}: no points" + (
+            f" left after dropping classes {sorted(src.dropped)}" if src.dropped else ""))
     check_cancel(prog)
     dsm_raw = acc.result("max")
-    prog.update(0.86, "filling gaps")
-    dsm = fill_gaps(dsm_raw, fill, progress=SubProgress(prog, 0.86, 0.9))
     kind = method.kind
     if kind == "auto":
         kind = "ground" if int(np.isfinite(gacc.result("min")).sum()) >= 3 else "lowest"
+    prog.update(0.82, "terrain")
     if kind == "min":
         dtm_arr = fill_gaps(acc.result("min"), fill)
     elif kind == "none":
@@ -177,7 +212,7 @@ def compute_surfaces(src: PointSource, res, *, dtm="min", fill="mean8", progress
         r, c = np.nonzero(~np.isnan(gmin))
         if r.size == 0:
             raise InputError(f"{src.path}: -dtm ground: the file has no ground (class 2) points; "
-                             "use -dtm min, lowest:R or a DTM GeoTIFF")
+                             "use -dtm auto, lowest:R, kp or a DTM GeoTIFF")
         gx, gy = spec.xy(r, c)
         dtm_arr = interpolate_tin(gx, gy, gmin[r, c], spec)
     elif kind == "lowest":
@@ -186,16 +221,56 @@ def compute_surfaces(src: PointSource, res, *, dtm="min", fill="mean8", progress
         from .ground import KrausPfeifer
 
         kp = KrausPfeifer() if method.g is None else KrausPfeifer(g=method.g, w=method.w)
-        pts, ground = ground_points(src, kp, SubProgress(prog, 0.86, 0.93))
+        pts, ground = ground_points(src, kp, SubProgress(prog, 0.82, 0.88))
         dtm_arr = dtm_from_ground(pts, ground, spec)
     else:  # file
         arr, dspec, _ = read_raster(method.path)
         dtm_arr = resample_to(arr, dspec, spec)
     check_cancel(prog)
+    chm_raw = dsm_raw - dtm_arr
+    out_cells = np.zeros(spec.shape, bool)
+    out_points = 0
+    ceiling = None
+    if outliers:
+        out_cells, ceiling = canopy_outliers(chm_raw, res)
+    if out_cells.any():
+        out_points = int(out_cells.sum())
+        dsm_raw = np.where(out_cells, np.nan, dsm_raw)
+    prog.update(0.88, "filling gaps")
+    dsm = fill_gaps(dsm_raw, fill, progress=SubProgress(prog, 0.88, 0.9))
+    if chm == "max":
+        chm_arr = dsm - dtm_arr
+        heights = chm_arr
+    else:
+        x = np.concatenate([k[0] for k in kept])
+        y = np.concatenate([k[1] for k in kept])
+        z = np.concatenate([k[2] for k in kept])
+        del kept
+        zn = z - _bilinear(dtm_arr, spec, x, y)
+        if out_cells.any():
+            r, c = spec.cell_index(x, y)
+            r = np.clip(r, 0, spec.height - 1)
+            c = np.clip(c, 0, spec.width - 1)
+            noise = out_cells[r, c] & (zn > ceiling[r, c])
+            out_points = int(noise.sum())
+            x, y, zn = x[~noise], y[~noise], zn[~noise]
+        prog.update(0.9, f"{chm} CHM")
+        check_cancel(prog)
+        if chm == "tin":
+            chm_arr = tin_surface(x, y, zn, spec)
+        else:
+            if max_edge is None:
+                max_edge = pitfree_edge(x.size, float(np.isfinite(dsm_raw).sum()) * spec.cell_area)
+            chm_arr = pitfree_chm(x, y, zn, spec, max_edge=(0.0, max_edge),
+                                  coarse=np.where(out_cells, np.nan, chm_raw))
+        chm_arr = fill_gaps(chm_arr, fill)
+        # tree heights: the highest return of a cell is above the TIN at its centre
+        heights = np.fmax(chm_arr, dsm_raw - dtm_arr)
     prog.update(0.95, "canopy height")
-    chm = dsm - dtm_arr
-    return {"dsm": dsm, "dtm": dtm_arr, "chm": chm, "spec": spec, "res": res, "dtm_method": kind if method.kind != "file" else method.path,
-            "points": n, "outside": acc.outside}
+    return {"dsm": dsm, "dtm": dtm_arr, "chm": chm_arr, "heights": heights, "spec": spec, "res": res,
+            "dtm_method": kind if method.kind != "file" else method.path, "chm_method": chm,
+            "points": n, "outside": acc.outside, "dropped": dict(src.dropped),
+            "outlier_cells": int(out_cells.sum()), "outlier_points": out_points}
 
 
 def _tags(command: str, src: PointSource, params: dict) -> dict:
@@ -204,17 +279,62 @@ def _tags(command: str, src: PointSource, params: dict) -> dict:
             "LIDARTREES_CRS": crs_label(src.crs), "LIDARTREES_TOOL": f"lidartrees_gis {__version__}"}
 
 
-def grid_file(input, output, *, res, stat="max", fill="none", a_srs=None, t_srs=None,
-              creation_options=None, overwrite=False, progress=None, **read_kw) -> dict:
+#: LAS classes dropped by default: 7 low noise, 18 high noise (ASPRS)
+NOISE_CLASSES = (7, 18)
+
+
+def parse_classes(value, param="-drop_class"):
+    """``"7,18"``, ``"7 18"``, ``[7, 18]``, ``"none"`` -> tuple of ints (empty for none)."""
+    if value is None:
+        return None
+    if isinstance(value, (list, tuple)):
+        items = [str(v) for v in value]
+    else:
+        text = str(value).strip().lower()
+        if text in ("", "none", "-"):
+            return ()
+        items = text.replace(",", " ").split()
+    try:
+        out = tuple(int(v) for v in items)
+    except ValueError:
+        raise InputError(f"{param}: expected class numbers such as 7,18 (or none), got {value!r}") from None
+    if any(c < 0 or c > 255 for c in out):
+        raise InputError(f"{param}: classes are 0-255, got {value!r}")
+    return out
+
+
+def open_filtered(input, *, a_srs=None, t_srs=None, drop_class=NOISE_CLASSES, keep_class=None,
+                  **read_kw) -> PointSource:
+    """Open a point file with its class filter set: ``drop_class`` (default 7 and 18, noise)
+    and ``keep_class`` (only these; default all), as LAStools' ``-drop_class``/``-keep_class``."""
+    src = open_input(input, a_srs=a_srs, t_srs=t_srs, **read_kw)
+    src.set_class_filter(drop=parse_classes(drop_class) or (),
+                         keep=parse_classes(keep_class, "-keep_class"))
+    return src
+
+
+def _filter_report(src, s=None) -> dict:
+    out = {"dropped_classes": {str(k): v for k, v in sorted(src.dropped.items())} or None}
+    if s is not None:
+        out["outlier_points"] = s.get("outlier_points") or None
+    return out
+
+
+def grid_file(input, output, *, res="auto", stat="max", fill="none", a_srs=None, t_srs=None,
+              drop_class=NOISE_CLASSES, keep_class=None, creation_options=None, overwrite=False,
+              progress=None, **read_kw) -> dict:
     """Grid a point file into a GeoTIFF with one statistic per cell.
 
     ``stat`` is ``max``, ``min``, ``mean`` or ``count``; empty cells are nodata (0 for count)
-    unless ``fill="mean8"``. Returns a dict with the grid spec, point count and the output path.
+    unless ``fill="mean8"``. ``res="auto"`` is seed 003's sqrt(1/n). Points of the classes
+    ``drop_class`` (noise, 7 and 18, by default) are left out. Returns a dict with the grid
+    spec, point count and the output path.
     """
     from .io.output import check_output
 
     check_output(output, overwrite)
-    src = open_input(input, a_srs=a_srs, t_srs=t_srs, **read_kw)
+    src = open_filtered(input, a_srs=a_srs, t_srs=t_srs, drop_class=drop_class,
+                        keep_class=keep_class, **read_kw)
     prog = as_progress(progress)
     r = resolve_resolution(src, res, SubProgress(prog, 0, 0.2))
     spec = grid_spec_for(src, r, SubProgress(prog, 0, 0.2))
@@ -240,23 +360,33 @@ def grid_file(input, output, *, res, stat="max", fill="none", a_srs=None, t_srs=
                       description=f"z {stat}")
     prog.update(1.0, "done")
     return {"output": str(output), "points": n, "res": r, "shape": spec.shape,
-            "crs": crs_label(spec.crs), "skipped": src.skipped,
+            "crs": crs_label(spec.crs), "skipped": src.skipped, **_filter_report(src),
             "reprojection": src.repro.report() if src.repro else None}
 
 
-def chm_file(input, output, *, res, dtm="min", fill="mean8", dsm_out=None, dtm_out=None,
-             a_srs=None, t_srs=None, creation_options=None, overwrite=False, progress=None,
-             **read_kw) -> dict:
-    """Canopy height model GeoTIFF (and optionally the DSM and DTM) from a point file."""
+def chm_file(input, output, *, res="auto", dtm="auto", chm="pitfree", fill="mean8",
+             outliers=True, drop_class=NOISE_CLASSES, keep_class=None, dsm_out=None,
+             dtm_out=None, a_srs=None, t_srs=None, creation_options=None, overwrite=False,
+             progress=None, **read_kw) -> dict:
+    """Canopy height model GeoTIFF (and optionally the DSM and DTM) from a point file.
+
+    Defaults: cell size ``auto`` (max(sqrt(1/n), 0.25 m)), DTM ``auto`` (class-2 ground if any,
+    else lowest:5), pit-free CHM (Khosravipour et al. 2014), noise classes 7 and 18 dropped
+    and isolated returns far above the canopy removed (see :func:`compute_surfaces`).
+    """
     from .io.output import check_output
 
     for p, name in ((output, "OUTPUT"), (dsm_out, "-dsm_out"), (dtm_out, "-dtm_out")):
         if p is not None:
             check_output(p, overwrite, param=name)
-    src = open_input(input, a_srs=a_srs, t_srs=t_srs, **read_kw)
+    src = open_filtered(input, a_srs=a_srs, t_srs=t_srs, drop_class=drop_class,
+                        keep_class=keep_class, **read_kw)
     prog = as_progress(progress)
-    s = compute_surfaces(src, res, dtm=dtm, fill=fill, progress=SubProgress(prog, 0, 0.9))
-    params = {"res": s["res"], "dtm": s["dtm_method"], "fill": fill}
+    s = compute_surfaces(src, res, dtm=dtm, fill=fill, chm=chm, outliers=outliers,
+                         progress=SubProgress(prog, 0, 0.9))
+    params = {"res": s["res"], "dtm": s["dtm_method"], "chm": chm, "fill": fill,
+              "outliers": outliers, "drop_class": ",".join(map(str, parse_classes(drop_class) or ())),
+              "keep_class": keep_class}
     check_cancel(prog)
     write_geotiff(output, s["chm"], s["spec"], overwrite=overwrite, creation_options=creation_options,
                   tags=_tags("chm", src, params), description="canopy height (m)")
@@ -270,7 +400,8 @@ def chm_file(input, output, *, res, dtm="min", fill="mean8", dsm_out=None, dtm_o
                       description="terrain height (m)")
     prog.update(1.0, "done")
     return {"output": str(output), "points": s["points"], "res": s["res"], "shape": s["spec"].shape,
-            "crs": crs_label(s["spec"].crs), "dtm": s["dtm_method"], "skipped": src.skipped,
+            "crs": crs_label(s["spec"].crs), "dtm": s["dtm_method"], "chm": chm,
+            "skipped": src.skipped, **_filter_report(src, s),
             "reprojection": src.repro.report() if src.repro else None}
 
 
@@ -293,29 +424,37 @@ TABLE1 = (
 )
 
 
-def load_chm(input, *, res=None, dtm="auto", fill="mean8", a_srs=None, t_srs=None, progress=None,
+def load_chm(input, *, res="auto", dtm="auto", chm="pitfree", fill="mean8", outliers=True,
+             drop_class=NOISE_CLASSES, keep_class=None, a_srs=None, t_srs=None, progress=None,
              **read_kw):
-    """A CHM from a GeoTIFF, or built from points (``res`` needed). Returns (chm, spec, source)."""
+    """A CHM from a GeoTIFF, or built from points (see :func:`chm_file` for the defaults).
+
+    Returns ``(chm, spec, source, info)``; ``info`` says how a CHM was built from points
+    (resolution, DTM, CHM kind, dropped classes, outliers), empty for a GeoTIFF.
+    """
     if str(input).lower().endswith(RASTER_SUFFIXES):
         from .crs import parse_crs
 
-        chm, spec, _ = read_raster(input)
+        arr, spec, _ = read_raster(input)
         if a_srs:
             spec = spec.with_crs(parse_crs(a_srs))
-        return chm, spec, str(input)
-    if res is None:
-        raise InputError("-tr: a resolution is required when INPUT is a point file")
-    src = open_input(input, a_srs=a_srs, t_srs=t_srs, **read_kw)
-    s = compute_surfaces(src, res, dtm=dtm, fill=fill, progress=progress)
-    return s["chm"], s["spec"], str(input)
+        return arr, spec, str(input), {"heights": arr}
+    src = open_filtered(input, a_srs=a_srs, t_srs=t_srs, drop_class=drop_class,
+                        keep_class=keep_class, **read_kw)
+    s = compute_surfaces(src, "auto" if res is None else res, dtm=dtm, fill=fill, chm=chm,
+                         outliers=outliers, progress=progress)
+    info = {"res": s["res"], "dtm": s["dtm_method"], "chm": chm, "points": s["points"],
+            "heights": s["heights"], **_filter_report(src, s)}
+    return s["chm"], s["spec"], str(input), info
 
 
 def trees_frames(result: dict, spec: GridSpec, nln: str = ""):
-    """GeoDataFrames ``tree_tops`` and ``crowns`` (and a ``summary`` DataFrame) of a result of
-    :func:`lidartrees_gis.trees.detect_trees`."""
+    """GeoDataFrames ``tree_tops`` and ``crowns``, a ``summary`` DataFrame and, in plantation
+    mode (``result["stocking"]``), a ``gaps`` point layer of the missing trees, from a result
+    of :func:`lidartrees_gis.trees.detect_trees`."""
     import geopandas as gpd
     import pandas as pd
-    from shapely.geometry import Point
+    import shapely
 
     from .metrics import crown_polygons
 
@@ -327,22 +466,42 @@ def trees_frames(result: dict, spec: GridSpec, nln: str = ""):
     attrs["n_cells"] = attrs["n_cells"].astype("int64")
     attrs["method"] = attrs["method"].astype(str)
     crs = spec.crs.to_wkt() if spec.crs is not None else None
-    tops = gpd.GeoDataFrame(attrs.copy(), geometry=[Point(x, y) for x, y in zip(t["x"], t["y"])],
-                            crs=crs)
+    tops = gpd.GeoDataFrame(attrs.copy(), geometry=shapely.points(t["x"], t["y"]), crs=crs)
     polys = crown_polygons(result["labels"], spec, n)
     crowns = gpd.GeoDataFrame(attrs.copy(), geometry=polys, crs=crs)
     chm = result.get("chm")
     cells = int(np.isfinite(chm).sum()) if chm is not None else spec.width * spec.height
     area_ha = cells * spec.cell_area / 1e4  # area processed: cells with a canopy height
     h = t["height"]
-    summary = pd.DataFrame([{
+    p = result["params"]
+    auto = result.get("auto") or {}
+    row = {
         "trees": n, "area_ha": area_ha, "trees_per_ha": n / area_ha if area_ha else np.nan,
         "mean_height": float(np.mean(h)) if n else np.nan,
         "sd_height": float(np.std(h, ddof=1)) if n > 1 else np.nan,
         "mean_crown_diameter": float(np.mean(t["crown_diameter"])) if n else np.nan,
-        "method": result["params"].method, "smooth": result["params"].smooth,
-    }])
-    return {f"{nln}tree_tops": tops, f"{nln}crowns": crowns, f"{nln}summary": summary}
+        "method": p.method, "smooth": auto.get("smooth", p.smooth) if p.smooth == "auto" else p.smooth,
+        "tops": result.get("tops", p.tops), "res": spec.res,
+        "crown_scale": auto.get("crown_scale", np.nan),
+        "dominant_height": auto.get("dominant_height", np.nan),
+    }
+    layers = {}
+    st = result.get("stocking")
+    if st is not None:
+        g = st["grid"]
+        row.update({"spacing": f"{g.row_spacing:g}x{g.tree_spacing:g}", "row_azimuth": g.azimuth,
+                    "planting_positions": st["expected"], "stocked_positions": st["stocked"],
+                    "missing_trees": st["missing"], "extra_tops": st["extra"],
+                    "stocking_pct": st["stocking_pct"], "planted_per_ha": st["planted_per_ha"],
+                    "planted_area_ha": st["planted_area_ha"]})
+        gaps = gpd.GeoDataFrame(
+            {"gap_id": np.arange(1, st["missing"] + 1, dtype=np.int64),
+             "row_index": st["gaps_j"], "position_in_row": st["gaps_i"],
+             "x": st["gaps_x"], "y": st["gaps_y"]},
+            geometry=shapely.points(st["gaps_x"], st["gaps_y"]), crs=crs)
+        layers[f"{nln}gaps"] = gaps
+    summary = pd.DataFrame([row])
+    return {f"{nln}tree_tops": tops, f"{nln}crowns": crowns, **layers, f"{nln}summary": summary}
 
 
 def write_quicklook(path, chm, labels, rows, cols, *, overwrite=False):
@@ -374,10 +533,17 @@ def write_quicklook(path, chm, labels, rows, cols, *, overwrite=False):
     plt.close(fig)
 
 
-def trees_file(input, output, *, res=None, params=None, dtm="auto", fill="mean8", nln="",
+def trees_file(input, output, *, res="auto", params=None, dtm="auto", chm="pitfree",
+               fill="mean8", outliers=True, drop_class=NOISE_CLASSES, keep_class=None, nln="",
                layer_options=None, overwrite=False, append=False, png=None, csv=None,
                chm_out=None, a_srs=None, t_srs=None, progress=None, **read_kw) -> dict:
-    """Tree tops, crowns and a stand summary from points or a CHM into a GeoPackage."""
+    """Tree tops, crowns and a stand summary from points or a CHM into a GeoPackage.
+
+    From points the CHM is built as :func:`chm_file` does (pit-free, cell size auto, DTM auto,
+    noise dropped); ``params`` (:class:`lidartrees_gis.trees.TreeParams`) default to automatic
+    smoothing and the adaptive window. With ``params.spacing`` (plantation mode) the planting
+    grid is fitted and a ``gaps`` layer of missing trees and the stocking are written too.
+    """
     from .io.output import check_output
     from .io.vector import write_gpkg
     from .trees import TreeParams, detect_trees
@@ -389,20 +555,34 @@ def trees_file(input, output, *, res=None, params=None, dtm="auto", fill="mean8"
         if extra:
             check_output(extra, overwrite, param=name)
     prog = as_progress(progress)
-    chm, spec, source = load_chm(input, res=res, dtm=dtm, fill=fill, a_srs=a_srs, t_srs=t_srs,
-                                 progress=SubProgress(prog, 0, 0.5), **read_kw)
+    arr, spec, source, built = load_chm(input, res=res, dtm=dtm, chm=chm, fill=fill,
+                                        outliers=outliers, drop_class=drop_class,
+                                        keep_class=keep_class, a_srs=a_srs, t_srs=t_srs,
+                                        progress=SubProgress(prog, 0, 0.5), **read_kw)
     prog.update(0.5, "detecting trees")
     check_cancel(prog)
-    result = detect_trees(chm, spec, p)
+    result = detect_trees(arr, spec, p, heights=built.get("heights"))
     check_cancel(prog)
-    result["chm"] = chm
+    result["chm"] = arr
+    t = result["table"]
+    if p.spacing is not None:
+        from .stocking import stocking
+
+        prog.update(0.75, "planting grid")
+        result["stocking"] = stocking(t["x"], t["y"], arr, spec, p.spacing,
+                                      min_height=p.min_height)
     prog.update(0.8, "writing")
     frames = trees_frames(result, spec, nln)
     meta = {"lidartrees_version": __version__, "input": source, "res": spec.res,
-            "dtm": dtm, "fill": fill, **p.as_dict()}
+            "dtm": built.get("dtm", dtm), "chm": built.get("chm", "input raster"), "fill": fill,
+            **p.as_dict(), **{f"auto_{k}": v for k, v in (result.get("auto") or {}).items()}}
+    if "res" in built:
+        meta.update({"drop_class": ",".join(map(str, parse_classes(drop_class) or ())),
+                     "keep_class": keep_class, "outliers": outliers,
+                     "dropped_classes": built.get("dropped_classes"),
+                     "outlier_points": built.get("outlier_points")})
     write_gpkg(output, frames, overwrite=overwrite, append=append, layer_options=layer_options,
                metadata=meta)
-    t = result["table"]
     if csv:
         from .io.output import atomic_output
 
@@ -416,29 +596,42 @@ def trees_file(input, output, *, res=None, params=None, dtm="auto", fill="mean8"
         write_quicklook(png, result["smoothed"], result["labels"], t["row"], t["col"],
                         overwrite=overwrite)
     if chm_out:
-        write_geotiff(chm_out, chm, spec, overwrite=overwrite, description="canopy height (m)")
+        write_geotiff(chm_out, arr, spec, overwrite=overwrite, description="canopy height (m)")
     prog.update(1.0, "done")
-    s = frames[f"{nln}summary"].iloc[0].to_dict()
-    return {"output": str(output), "trees": int(s["trees"]), "crs": crs_label(spec.crs),
-            "mean_height": s["mean_height"], "mean_crown_diameter": s["mean_crown_diameter"],
-            "trees_per_ha": s["trees_per_ha"], "result": result, "spec": spec}
+    srow = frames[f"{nln}summary"].iloc[0].to_dict()
+    out = {"output": str(output), "trees": int(srow["trees"]), "crs": crs_label(spec.crs),
+           "res": spec.res, "chm": built.get("chm", "input raster"),
+           "smooth": srow["smooth"], "tops": srow["tops"],
+           "crown_scale": None if not np.isfinite(srow["crown_scale"]) else round(srow["crown_scale"], 3),
+           "mean_height": srow["mean_height"], "mean_crown_diameter": srow["mean_crown_diameter"],
+           "trees_per_ha": srow["trees_per_ha"],
+           "dropped_classes": built.get("dropped_classes"), "outlier_points": built.get("outlier_points"),
+           "result": result, "spec": spec}
+    if "stocking_pct" in srow:
+        out.update({k: srow[k] for k in ("spacing", "row_azimuth", "planting_positions",
+                                         "missing_trees", "stocking_pct")})
+    return out
 
 
-def compare_file(input, output, *, res=None, dtm="auto", fill="mean8", min_height=2.0, step=0.1,
+def compare_file(input, output, *, res="auto", dtm="auto", chm="pitfree", fill="mean8",
+                 min_height=2.0, step=0.1, strict=False, drop_class=NOISE_CLASSES, keep_class=None,
                  overwrite=False, a_srs=None, t_srs=None, progress=None, **read_kw) -> dict:
     """Seed 000's Table 1 on one input: ten configurations -> trees, mean height, mean crown
-    diameter (CSV and a Markdown table)."""
+    diameter (CSV and a Markdown table). Tops are 8-neighbour maxima as in the seed
+    (``strict=True``: strictly higher than all 8 neighbours, the seed's literal rule)."""
     from .io.output import atomic_output, check_output
     from .trees import TreeParams, detect_trees
 
     check_output(output, overwrite)
     prog = as_progress(progress)
-    chm, spec, _ = load_chm(input, res=res, dtm=dtm, fill=fill, a_srs=a_srs, t_srs=t_srs,
-                            progress=SubProgress(prog, 0, 0.3), **read_kw)
+    arr, spec, _, info = load_chm(input, res=res, dtm=dtm, chm=chm, fill=fill, drop_class=drop_class,
+                               keep_class=keep_class, a_srs=a_srs, t_srs=t_srs,
+                               progress=SubProgress(prog, 0, 0.3), **read_kw)
     rows = []
     for i, (label, method, sm) in enumerate(TABLE1):
-        r = detect_trees(chm, spec, TreeParams(method=method, smooth=sm, min_height=min_height,
-                                               step=step))
+        r = detect_trees(arr, spec, TreeParams(method=method, smooth=sm, min_height=min_height,
+                                               step=step, tops="strict" if strict else "lm"),
+                         heights=info.get("heights"))
         t = r["table"]
         n = len(t["tree_id"])
         rows.append({"configuration": label, "method": method, "smooth": sm, "trees": n,
@@ -455,7 +648,7 @@ def compare_file(input, output, *, res=None, dtm="auto", fill="mean8", min_heigh
     md = ["| method | trees | mean height (m) | mean diameter (m) |", "|---|---|---|---|"]
     md += [f"| {r['configuration']} | {r['trees']} | {r['mean_height']:.2f} | "
            f"{r['mean_crown_diameter']:.2f} |" for r in rows]
-    return {"output": str(output), "rows": rows, "table": "\n".join(md)}
+    return {"output": str(output), "rows": rows, "table": "\n".join(md), "res": spec.res}
 
 
 # ---------------------------------------------------------------------------------------------

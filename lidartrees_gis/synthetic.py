@@ -61,7 +61,7 @@ def make_stand(params: StandParams | None = None):
         x, y, z (with ``classification`` 2 for ground returns, 1 otherwise).
     truth : dict of ndarray
         ``tree_id, x, y, ground, height, crown_radius, visible_crown_diameter`` for every
-        standing tree. ``visible_crown_diameter`` = sqrt(4A/π) of the area A where that tree's
+        standing tree, and ``_missing_x``, ``_missing_y``: the planting positions left empty. ``visible_crown_diameter`` = sqrt(4A/π) of the area A where that tree's
         crown is the top surface (neighbouring crowns overlap along the rows).
     """
     p = params or StandParams()
@@ -73,6 +73,7 @@ def make_stand(params: StandParams | None = None):
     tx = gx.ravel() + p.origin_x + rng.normal(0, 0.1, gx.size)
     ty = gy.ravel() + p.origin_y + rng.normal(0, 0.1, gy.size)
     keep = rng.random(tx.size) >= p.missing_fraction
+    miss_x, miss_y = tx[~keep], ty[~keep]
     tx, ty = tx[keep], ty[keep]
     nt = tx.size
     th = rng.normal(p.mean_height, p.sd_height, nt)
@@ -121,6 +122,8 @@ def make_stand(params: StandParams | None = None):
         "tree_id": np.arange(1, nt + 1),
         "x": tx, "y": ty, "ground": tg, "height": th, "crown_radius": tr,
         "visible_crown_diameter": np.sqrt(4 * area / np.pi),
+        # planting positions left empty (not columns of the truth table)
+        "_missing_x": miss_x, "_missing_y": miss_y,
     }
     return PointChunk(px, py, pz, classification=cls), truth
 
@@ -136,7 +139,7 @@ def write_xyz_seed_dialect(path, points: PointChunk) -> None:
 
 def write_truth_csv(path, truth: dict) -> None:
     """Write the truth table as CSV (decimal point, comma separated)."""
-    cols = list(truth)
+    cols = [c for c in truth if not c.startswith("_")]
     with open(path, "w", encoding="ascii", newline="\n") as fh:
         fh.write(",".join(cols) + "\n")
         for i in range(len(truth["tree_id"])):

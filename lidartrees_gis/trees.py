@@ -7,7 +7,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from .detect import local_maxima, treex_maxima, variable_window_maxima
+from .detect import adaptive_maxima, local_maxima, treex_maxima, variable_window_maxima
 from .errors import InputError
 from .grid import GridSpec
 from .metrics import tree_table
@@ -16,7 +16,28 @@ from .segment import (keep_top_components, marker_watershed, region_growing, tre
 from .smooth import smooth as smooth_chm
 
 METHODS = ("rg", "treex", "watershed", "mcws")
-TOPS = ("auto", "lm", "treex", "vwf")
+TOPS = ("auto", "aw", "lm", "strict", "treex", "vwf")
+#: -smooth auto: Gaussian sigma in crown scales (see :func:`resolve_auto`)
+SIGMA_FACTOR = 0.1
+#: -spacing RxC: crown scale = SPACING_FACTOR x the smaller spacing
+SPACING_FACTOR = 0.3
+
+
+def parse_spacing(value):
+    """``"3x2"`` (row spacing x spacing in the row, m) -> ``(3.0, 2.0)``; None stays None."""
+    if value is None or value == "" or (isinstance(value, (tuple, list)) and len(value) == 2):
+        return None if value in (None, "") else (float(value[0]), float(value[1]))
+    import re
+
+    m = re.fullmatch(r"\s*([0-9.]+)\s*[xX*,;]\s*([0-9.]+)\s*", str(value))
+    try:
+        if m:
+            r, c = float(m.group(1)), float(m.group(2))
+            if r > 0 and c > 0:
+                return (r, c)
+    except ValueError:
+        pass
+    raise InputError(f"-spacing: expected ROWSxTREES in metres, e.g. 3x2, got {value!r}")
 
 
 @dataclass(frozen=True)
@@ -30,15 +51,19 @@ class TreeParams:
         (seed 001); watershed = Vincent–Soille on the inverted CHM (seed 000 Annex 1); mcws =
         marker-controlled watershed from the tops.
     smooth : str
-        CHM filter (see :func:`lidartrees_gis.smooth.smooth`), e.g. gauss3, abefec:rhombus.
+        ``auto`` (default): a Gaussian whose sigma is ``SIGMA_FACTOR`` crown scales (none when
+        that is under a third of a cell); or a CHM filter of
+        :func:`lidartrees_gis.smooth.smooth`, e.g. none, gauss3, gauss5, abefec:rhombus (seed 000).
     min_height : float
         Minimum tree height, m (2 m, seed 000).
     step : float
         Region-growing threshold step ``ajuste``, m (0.1, seed 000 Annex 2).
-    tops : {"auto", "lm", "treex", "vwf"}
-        Tree-top finder for rg/mcws/treex: lm = 8-neighbour local maxima (seed 000), treex =
-        TreeX moving window (seed 001), vwf = height-dependent window; auto = treex for the treex
-        method, lm otherwise.
+    tops : {"auto", "aw", "lm", "strict", "treex", "vwf"}
+        Tree-top finder for rg/mcws/treex: aw = adaptive window (crown scale x height, see
+        :func:`lidartrees_gis.detect.adaptive_maxima`); lm = 8-neighbour local maxima, one per
+        plateau (seed 000); strict = strictly higher than all 8 neighbours (seed 000's literal
+        rule); treex = TreeX moving window (seed 001); vwf = window 0.1 h + 0.5 m; auto = treex
+        for the treex method, aw with ``smooth="auto"``, else lm (the seeds' behaviour).
     mean_crown_area, sd_crown_area : float
         TreeX window parameters, m² (field data; defaults for 3 x 2 m clonal eucalyptus).
     max_crown_area : float
@@ -47,10 +72,21 @@ class TreeParams:
         TreeX minimum crown height, m.
     connectivity : {4, 8}
         TreeX growth neighbourhood.
+    spacing : str or (float, float), optional
+        Planting spacing ``RxC`` (m), e.g. ``3x2``: sets the crown scale (``SPACING_FACTOR`` x
+        the smaller spacing) and turns on the stocking report.
+    crown_scale : float, optional
+        Crown scale (m) for ``auto``; default measured on the CHM
+        (:func:`lidartrees_gis.chm.crown_scale`) or from ``spacing``.
+    window_factor : float
+        Adaptive window radius for a tree of the dominant height, in crown scales.
+    treex_centred : bool
+        TreeX: also require a top to be the highest of the window centred on it (drops one of
+        two close trees; off as in the seed).
     """
 
     method: str = "rg"
-    smooth: str = "none"
+    smooth: str = "auto"
     min_height: float = 2.0
     step: float = 0.1
     tops: str = "auto"
@@ -59,6 +95,10 @@ class TreeParams:
     max_crown_area: float = 16.0
     min_crown_height: float = 2.0
     connectivity: int = 4
+    spacing: object = None
+    crown_scale: float | None = None
+    window_factor: float = 0.9
+    treex_centred: bool = False
 
     def __post_init__(self):
         if self.method not in METHODS:
@@ -69,20 +109,72 @@ class TreeParams:
             raise InputError("-min_height must be a number")
         if self.connectivity not in (4, 8):
             raise InputError(f"-connectivity must be 4 or 8, got {self.connectivity}")
+        object.__setattr__(self, "spacing", parse_spacing(self.spacing))
+        if self.crown_scale is not None and not (np.isfinite(self.crown_scale)
+                                                 and self.crown_scale > 0):
+            raise InputError(f"-crown_scale must be > 0 (m), got {self.crown_scale}")
+        if not (np.isfinite(self.window_factor) and self.window_factor > 0):
+            raise InputError(f"-window_factor must be > 0, got {self.window_factor}")
+        if not (np.isfinite(self.step) and self.step > 0):
+            raise InputError(f"-step must be > 0 (m), got {self.step}")
 
     def as_dict(self) -> dict:
-        return asdict(self)
+        d = asdict(self)
+        d["spacing"] = None if self.spacing is None else f"{self.spacing[0]:g}x{self.spacing[1]:g}"
+        return d
+
+    @property
+    def tops_finder(self) -> str:
+        """The tree-top finder ``tops="auto"`` stands for."""
+        if self.tops != "auto":
+            return self.tops
+        if self.method == "treex":
+            return "treex"
+        return "aw" if self.smooth == "auto" else "lm"
 
 
-def find_tops(chm_s, res, p: TreeParams):
-    """Tree tops on the smoothed CHM by ``p.tops``."""
-    which = p.tops if p.tops != "auto" else ("treex" if p.method == "treex" else "lm")
+def resolve_auto(chm, res: float, p: TreeParams) -> dict:
+    """What ``-smooth auto`` and the adaptive window use on this CHM.
+
+    * crown scale L (m): ``p.crown_scale``, else ``SPACING_FACTOR`` x the smaller planting
+      spacing, else measured on the CHM (:func:`lidartrees_gis.chm.crown_scale`);
+    * dominant height: 95th percentile of the canopy heights >= ``min_height``;
+    * Gaussian sigma = ``SIGMA_FACTOR`` x L, applied when at least a third of a cell.
+    """
+    from .chm import crown_scale
+
+    a = np.asarray(chm, np.float64)
+    canopy = a[np.isfinite(a) & (a >= p.min_height)]
+    if p.crown_scale is not None:
+        L, src = float(p.crown_scale), "given"
+    elif p.spacing is not None:
+        L, src = SPACING_FACTOR * min(p.spacing), "spacing"
+    else:
+        L, src = crown_scale(a, res, min_height=p.min_height), "measured"
+        if not np.isfinite(L):
+            L, src = 2.0 * res, "default (no canopy to measure)"
+    hd = float(np.percentile(canopy, 95)) if canopy.size else max(p.min_height, 1.0)
+    sigma = SIGMA_FACTOR * L
+    smooth = f"gauss:{sigma:.3f}" if sigma / res >= 1.0 / 3.0 else "none"
+    return {"crown_scale": float(L), "crown_scale_source": src, "dominant_height": hd,
+            "sigma": sigma if smooth != "none" else 0.0, "smooth": smooth}
+
+
+def find_tops(chm_s, res, p: TreeParams, auto: dict | None = None):
+    """Tree tops on the smoothed CHM by ``p.tops`` (see :attr:`TreeParams.tops_finder`)."""
+    which = p.tops_finder
     if which == "treex":
         return treex_maxima(chm_s, res, mean_crown_area=p.mean_crown_area,
-                            sd_crown_area=p.sd_crown_area, min_height=p.min_height)
+                            sd_crown_area=p.sd_crown_area, min_height=p.min_height,
+                            centred=p.treex_centred)
     if which == "vwf":
         return variable_window_maxima(chm_s, res, min_height=p.min_height)
-    return local_maxima(chm_s, min_height=p.min_height)
+    if which == "aw":
+        auto = auto or resolve_auto(chm_s, res, p)
+        return adaptive_maxima(chm_s, res, crown_scale=auto["crown_scale"],
+                               dominant_height=auto["dominant_height"], min_height=p.min_height,
+                               factor=p.window_factor)
+    return local_maxima(chm_s, min_height=p.min_height, strict=(which == "strict"))
 
 
 def _watershed_tops(labels, chm_s, min_height):
@@ -109,7 +201,7 @@ def _watershed_tops(labels, chm_s, min_height):
     return remap[lab], rows.astype(np.int64), cols.astype(np.int64)
 
 
-def detect_trees(chm, spec: GridSpec, params: TreeParams | None = None) -> dict:
+def detect_trees(chm, spec: GridSpec, params: TreeParams | None = None, *, heights=None) -> dict:
     """Tree tops, crowns and per-tree measures on a CHM.
 
     Parameters
@@ -119,6 +211,9 @@ def detect_trees(chm, spec: GridSpec, params: TreeParams | None = None) -> dict:
     spec : GridSpec
         Georeferencing of ``chm``.
     params : TreeParams
+    heights : (M, N) ndarray of float, optional
+        Where tree heights are read (highest value in the crown); default ``chm``. From points,
+        the pit-free CHM or the highest return of the cell, whichever is higher.
 
     Returns
     -------
@@ -129,11 +224,14 @@ def detect_trees(chm, spec: GridSpec, params: TreeParams | None = None) -> dict:
     """
     p = params or TreeParams()
     chm = np.asarray(chm, dtype=np.float64)
-    chm_s = smooth_chm(chm, p.smooth, res=spec.res)
+    auto = None
+    if p.smooth == "auto" or p.tops_finder == "aw":
+        auto = resolve_auto(chm, spec.res, p)
+    chm_s = smooth_chm(chm, auto["smooth"] if p.smooth == "auto" else p.smooth, res=spec.res)
     if p.method == "watershed":
         labels, rows, cols = _watershed_tops(vincent_soille(chm_s), chm_s, p.min_height)
     else:
-        rows, cols = find_tops(chm_s, spec.res, p)
+        rows, cols = find_tops(chm_s, spec.res, p, auto)
         if p.method == "rg":
             labels = region_growing(chm_s, rows, cols, step=p.step, min_height=p.min_height)
         elif p.method == "treex":
@@ -142,9 +240,10 @@ def detect_trees(chm, spec: GridSpec, params: TreeParams | None = None) -> dict:
         else:
             labels = marker_watershed(chm_s, rows, cols, min_height=p.min_height)
     labels = keep_top_components(labels, rows, cols)
-    table = tree_table(labels, rows, cols, chm, spec)
+    table = tree_table(labels, rows, cols, chm if heights is None else heights, spec)
     table["method"] = np.array([p.method] * len(rows), dtype=object)
-    return {"table": table, "labels": labels, "smoothed": chm_s, "params": p}
+    return {"table": table, "labels": labels, "smoothed": chm_s, "params": p, "auto": auto,
+            "tops": p.tops_finder if p.method != "watershed" else "watershed basins"}
 
 
 def match_trees(det_x, det_y, ref_x, ref_y, max_dist: float = 1.0):

@@ -27,20 +27,30 @@ from qgis.core import (QgsProcessingAlgorithm, QgsProcessingContext,
 from ._lib import commands, executable_error, find_executable, styles_dir
 
 INPUT_FILTER = ("Point clouds and rasters (*.las *.laz *.xyz *.txt *.csv *.pts *.gz *.tif *.tiff);;"
-                "All files (*.*)")
+                "Tree tables (*.gpkg *.csv *.shp);;All files (*.*)")
 #: style applied to each raster/vector output when loaded (command, parameter name) -> qml
 STYLES = {("chm", "output"): "chm.qml", ("chm", "dtm_out"): "dtm_hillshade.qml",
           ("trees", "chm_out"): "chm.qml", ("grid", "output"): None}
 GPKG_LAYERS = (("tree_tops", "tree_tops.qml"), ("crowns", "crowns.qml"))
+GAPS_LAYER = ("gaps", "gaps.qml")  # plantation mode (-spacing) only
+CASTRO = ("Castro, F. da C. e (2006). Segmentação de imagens geradas por laser scanning "
+          "aerotransportado para delimitação de árvores individuais em áreas de reflorestamento de "
+          "eucaliptos. MSc dissertation, Universidade Tecnológica Federal do Paraná (UTFPR), "
+          "Curitiba")
+KHOSRAVIPOUR = ("Khosravipour, A., Skidmore, A. K., Isenburg, M., Wang, T. & Hussin, Y. A. (2014). "
+                "Generating pit-free canopy height models from airborne lidar. PE&RS 80(9), 863-872")
 REFERENCES = {
-    "chm": "Castro, M. C. (2006). Segmentação de grids de alturas de dados laser para delineamento "
-           "de copas de árvores (seed 000), §2.3: DSM = highest point per cell, DTM = lowest, "
-           "gap filling by the mean of the 8 neighbours. Leite et al. (seed 003): C = sqrt(1/n).",
-    "grid": "Castro (2006), seed 000, §2.3.",
-    "trees": "Castro (2006), seed 000: Gaussian masks, grey morphology (abefec...), region growing "
-             "after Hyyppä et al. (2001) (Annex 2), Vincent & Soille (1991) watershed (Annex 1). "
-             "Pantaleão, Dutra & Macedo, TreeX (seed 001): moving window + priority growing.",
-    "compare": "Castro (2006), seed 000, Table 1.",
+    "chm": f"{CASTRO}, §2.3: DSM = highest point per cell, DTM = lowest, gap filling by the mean "
+           f"of the 8 neighbours (-chm max). {KHOSRAVIPOUR} (-chm pitfree, the default). "
+           "Leite et al.: C = sqrt(1/n).",
+    "grid": f"{CASTRO}, §2.3.",
+    "trees": f"{CASTRO}: Gaussian masks, grey morphology (abefec...), region growing after Hyyppä "
+             "et al. (2001) (Annex 2), Vincent & Soille (1991) watershed (Annex 1). Pantaleão, "
+             "Dutra & Macedo, TreeX: moving window + priority growing. "
+             f"{KHOSRAVIPOUR}. Eysn, L. et al. (2015), Forests 6, 1721-1747 (evaluation).",
+    "compare": f"{CASTRO}, Table 1.",
+    "evaluate": "Eysn, L. et al. (2015). A benchmark of lidar-based single tree detection methods "
+                "using heterogeneous forest data from the Alpine Space. Forests 6, 1721-1747.",
     "ground": "Kraus, K. & Pfeifer, N. (1998) robust interpolation, as in FUSION's GroundFilter; "
               "parameters for eucalyptus by Leite et al. (seed 003).",
     "dtm-quality": "Leite et al. (seed 003): 77 (g, w) DTMs judged by GLCM texture, PCA and "
@@ -116,6 +126,8 @@ def _output_kind(cmd_name, p):
         return "folder"
     if "png" in p.name:
         return "png"
+    if cmd_name == "evaluate":
+        return "json"
     if p.name == "csv" or cmd_name == "compare":
         return "csv"
     if cmd_name == "trees" and p.name == "output":
@@ -192,7 +204,8 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
             if kind == "raster":
                 return QgsProcessingParameterRasterDestination(pid, label, optional=opt,
                                                                createByDefault=not opt)
-            filt = {"gpkg": "GeoPackage (*.gpkg)", "csv": "CSV (*.csv)", "png": "PNG (*.png)"}[kind]
+            filt = {"gpkg": "GeoPackage (*.gpkg)", "csv": "CSV (*.csv)", "png": "PNG (*.png)",
+                    "json": "JSON report (*.json);;Matched pairs CSV (*.csv)"}[kind]
             return QgsProcessingParameterFileDestination(pid, label, filt, optional=opt,
                                                          createByDefault=not opt)
         if p.kind == "choice":
@@ -278,7 +291,7 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
         for p in cmd.params:
             if p.kind in ("output", "outdir") and kw.get(p.name):
                 out[p.name.upper()] = kw[p.name]
-                self._load_with_style(p, kw[p.name], context)
+                self._load_with_style(p, kw[p.name], context, with_gaps=bool(kw.get("spacing")))
         if self._name == "info":
             out["JSON"] = json.dumps(res)
             out["POINTS"] = res["points"]
@@ -291,10 +304,10 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
             feedback.pushInfo(res["table"])
         return out
 
-    def _load_with_style(self, p, path, context):
+    def _load_with_style(self, p, path, context, with_gaps=False):
         sdir = styles_dir()
         if self._name == "trees" and p.name == "output":
-            for layer, qml in GPKG_LAYERS:
+            for layer, qml in GPKG_LAYERS + ((GAPS_LAYER,) if with_gaps else ()):
                 uri = f"{path}|layername={layer}"
                 details = QgsProcessingContext.LayerDetails(layer, context.project(), layer)
                 if sdir:

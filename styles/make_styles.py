@@ -87,6 +87,13 @@ def main():
     graduated(polys, "crown_diameter", lambda c: QgsFillSymbol.createSimple(
         {"style": "no", "outline_color": c, "outline_width": "0.5"}), diam, dcol)
     polys.saveNamedStyle(str(HERE / "crowns.qml"))
+    from qgis.core import QgsSingleSymbolRenderer
+
+    gaps = QgsVectorLayer("Point?field=gap_id:integer", "gaps", "memory")
+    gaps.setRenderer(QgsSingleSymbolRenderer(QgsMarkerSymbol.createSimple(
+        {"name": "cross2", "color": "#e31a1c", "outline_color": "#e31a1c", "outline_width": "0.6",
+         "size": "3"})))
+    gaps.saveNamedStyle(str(HERE / "gaps.qml"))
     app.exitQgis()
     print("styles written to", HERE)
 

@@ -13,7 +13,9 @@ pytestmark = pytest.mark.realdata
 def test_bcts_chm_is_max_minus_min_per_cell(tmp_path, data):
     f = data("lasR_bcts/bcts_1.laz")
     out = tmp_path / "chm.tif"
-    assert main(["chm", str(f), str(out), "-tr", "0.5", "-q"]) == 0
+    # seed 000's CHM: highest minus lowest point per cell, nothing dropped
+    assert main(["chm", str(f), str(out), "-tr", "0.5", "-dtm", "min", "-chm", "max",
+                 "-drop_class", "none", "-keep_outliers", "-q"]) == 0
     pts = open_points(f).read_all()
     with rasterio.open(out) as ds:
         assert ds.crs.to_epsg() == 3005

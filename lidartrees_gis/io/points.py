@@ -250,6 +250,17 @@ class PointSource:
         self.header_info = header_info or {}
         self.skipped = 0
         self._stats = None
+        self.drop_classes: frozenset = frozenset()
+        self.keep_classes: frozenset | None = None
+        self.dropped: dict = {}  # class -> points dropped by the class filter
+
+    def set_class_filter(self, drop=None, keep=None) -> None:
+        """Drop points of the classes ``drop`` (e.g. 7 and 18, noise) or keep only the classes
+        ``keep`` (as LAStools' ``-drop_class`` / ``-keep_class``). Points without a
+        classification (XYZ text without a class column) are never dropped."""
+        self.drop_classes = frozenset(int(c) for c in (drop or ()))
+        self.keep_classes = None if keep is None else frozenset(int(c) for c in keep)
+        self._stats = None
 
     @property
     def crs(self):
@@ -272,7 +283,20 @@ class PointSource:
     def chunks(self, progress=None) -> Iterator[PointChunk]:
         """Yield :class:`PointChunk` objects (in the output CRS) until the file ends."""
         gen = self._las_chunks(progress) if self.format == "las" else self._xyz_chunks(progress)
+        filt = bool(self.drop_classes) or self.keep_classes is not None
+        self.dropped = {}  # counts of the latest pass
         for chunk in gen:
+            if filt and chunk.classification is not None and len(chunk):
+                cls = chunk.classification
+                bad = np.isin(cls, list(self.drop_classes)) if self.drop_classes else \
+                    np.zeros(len(cls), bool)
+                if self.keep_classes is not None:
+                    bad |= ~np.isin(cls, list(self.keep_classes))
+                if bad.any():
+                    v, k = np.unique(cls[bad], return_counts=True)
+                    for c_, n_ in zip(v.tolist(), k.tolist()):
+                        self.dropped[int(c_)] = self.dropped.get(int(c_), 0) + int(n_)
+                    chunk = chunk.subset(~bad)
             if self.repro is not None and len(chunk):
                 chunk.x, chunk.y = self.repro(chunk.x, chunk.y)
                 chunk.x = np.asarray(chunk.x)

@@ -1,0 +1,327 @@
+"""Canopy height models from height-normalised points, and the noise guard.
+
+* :func:`tin_surface` — a linear TIN of points sampled at cell centres, triangles with an edge
+  longer than ``max_edge`` left out (lidR ``dsmtin``).
+* :func:`pitfree_chm` — Khosravipour et al. (2014) pit-free CHM: one TIN per height threshold
+  (points at or above it), long-edged triangles dropped in the upper layers, and the highest
+  layer kept in each cell (lidR ``pitfree``).
+* :func:`canopy_outliers` — isolated returns far above the local canopy (birds, clouds,
+  unclassified noise): cells whose highest return stands far above the canopy around them and
+  is not joined to it by a continuous surface.
+* :func:`chm_resolution` — the ``-tr auto`` rule for CHMs used to find trees.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy import ndimage
+
+from .errors import InputError
+from .grid import GridSpec
+
+#: Khosravipour et al. 2014 / lidR ``pitfree`` height thresholds (m)
+PITFREE_THRESHOLDS = (0.0, 2.0, 5.0, 10.0, 15.0)
+CHM_KINDS = ("pitfree", "max", "tin")
+
+
+def chm_resolution(count: int, area: float) -> float:
+    """CHM cell size for crown detection from the point count and the area they cover.
+
+    Rule: seed 003's ``C = sqrt(1 / n)`` (one return per cell, ``n`` points per m²), never
+    finer than 0.25 m, rounded to the nearest 0.05 m. Measured against sqrt(2/n) and
+    0.8 sqrt(1/n) on the synthetic stands, MixedConifer and the NEON plots
+    (benchmarks/bench_accuracy.py): the same or better everywhere, and better at 4 pts/m².
+
+    >>> chm_resolution(47_000, 10_000.0)   # 4.7 pts/m² -> 0.46 -> 0.45 m
+    0.45
+    >>> chm_resolution(250_000, 10_000.0)  # 25 pts/m² -> 0.2 -> 0.25 m
+    0.25
+    """
+    if count <= 0 or not area > 0:
+        raise InputError("-tr auto: needs a point density; the points cover no area "
+                         "(all at one location or on a line); give -tr RES")
+    c = max(math.sqrt(1.0 / (count / area)), 0.25)
+    return round(round(c / 0.05) * 0.05, 2)
+
+
+#: pit-free edge limit = EDGE_SPACINGS x the mean spacing of the first returns
+EDGE_SPACINGS = 3.0
+
+
+def pitfree_edge(count: int, area: float) -> float:
+    """Edge limit (m) of the pit-free upper layers: 1.5 m (lidR's usual setting), or
+    ``EDGE_SPACINGS`` times the mean spacing sqrt(1/n) of the first returns where the points
+    are sparser than about 4 per m², at most 3 m."""
+    if count <= 0 or not area > 0:
+        return 1.5
+    return float(np.clip(EDGE_SPACINGS * math.sqrt(area / count), 1.5, 3.0))
+
+
+def _centres_where(spec: GridSpec, mask):
+    r, c = np.nonzero(mask)
+    x, y = spec.xy(r, c)
+    return r, c, x, y
+
+
+def tin_surface(x, y, z, spec: GridSpec, *, max_edge: float = 0.0, cells=None,
+                out=None) -> np.ndarray:
+    """Linear TIN of points ``(x, y, z)`` sampled at the cell centres of ``spec``.
+
+    Parameters
+    ----------
+    x, y, z : (P,) ndarray of float
+    spec : GridSpec
+    max_edge : float
+        Triangles with an edge longer than this (m) are left out; 0 keeps every triangle.
+    cells : (M, N) ndarray of bool, optional
+        Only these cells are sampled (others NaN); default all (ignored by the compiled path,
+        which visits only the cells under each triangle anyway).
+    out : (M, N) ndarray of float, optional
+        Draw into this grid, keeping the higher value in each cell (NaN = empty).
+
+    Returns
+    -------
+    (M, N) ndarray of float, NaN outside the triangulation and in dropped triangles.
+    """
+    from scipy.spatial import Delaunay, QhullError
+
+    from . import _accel
+
+    if out is None:
+        out = np.full(spec.shape, np.nan)
+    x, y, z = (np.asarray(a, np.float64) for a in (x, y, z))
+    if x.size < 3:
+        return out
+    # triangulate in local coordinates (large UTM values lose precision in qhull)
+    x0, y0 = float(x.min()), float(y.min())
+    pts = np.column_stack([x - x0, y - y0])
+    try:
+        tri = Delaunay(pts)
+    except (QhullError, ValueError):
+        return out
+    simp = tri.simplices
+    if _accel.HAVE_NUMBA:
+        _accel.raster_triangles(pts[:, 0], pts[:, 1], z, simp.astype(np.int64), float(max_edge),
+                                spec.left - x0, spec.top - y0, spec.res, spec.height, spec.width,
+                                out)
+        return out
+    if max_edge and max_edge > 0:
+        p = pts[simp]  # (T, 3, 2)
+        e = np.stack([np.hypot(*(p[:, i] - p[:, (i + 1) % 3]).T) for i in range(3)], axis=1)
+        bad_simplex = e.max(axis=1) > max_edge
+    else:
+        bad_simplex = np.zeros(len(simp), bool)
+    if cells is None:
+        cells = np.ones(spec.shape, bool)
+    r, c, cx, cy = _centres_where(spec, cells)
+    q = np.column_stack([cx - x0, cy - y0])
+    s = tri.find_simplex(q)
+    ok = s >= 0
+    ok[ok] &= ~bad_simplex[s[ok]]
+    s_ok = s[ok]
+    T = tri.transform[s_ok]  # barycentric transform
+    b = np.einsum("ijk,ik->ij", T[:, :2, :], q[ok] - T[:, 2, :])
+    w = np.column_stack([b, 1.0 - b.sum(axis=1)])
+    vals = np.einsum("ij,ij->i", w, z[simp[s_ok]])
+    rr, cc = r[ok], c[ok]
+    out[rr, cc] = np.fmax(out[rr, cc], vals)
+    return out
+
+
+def pitfree_chm(x, y, zn, spec: GridSpec, *, thresholds=PITFREE_THRESHOLDS, max_edge=(0.0, 1.5),
+                coarse=None) -> np.ndarray:
+    """Pit-free CHM (Khosravipour et al. 2014; lidR ``pitfree``).
+
+    For each height threshold ``t`` a TIN is built from the points with ``zn >= t`` (the first
+    layer from all points); in every layer but the first, triangles with an edge longer than
+    ``max_edge[1]`` are dropped (``max_edge[0]`` applies to the first layer, 0 = no limit). The
+    CHM is the highest layer value in each cell, so the deep gaps between first returns inside a
+    crown (pits) are bridged by the layers above them.
+
+    Parameters
+    ----------
+    x, y, zn : (P,) ndarray of float
+        Point coordinates and heights above ground (first returns, as Khosravipour).
+    spec : GridSpec
+    thresholds : sequence of float
+        Height thresholds (m), default 0, 2, 5, 10, 15.
+    max_edge : (float, float)
+        Edge limits (m) for the first layer and for the others.
+    coarse : (M, N) ndarray of float, optional
+        Highest height per cell, used only to skip cells no upper layer can reach.
+
+    Returns
+    -------
+    (M, N) ndarray of float, NaN where no triangle covers a cell.
+    """
+    x, y, zn = (np.asarray(a, np.float64) for a in (x, y, zn))
+    if len(max_edge) != 2 or min(max_edge) < 0:
+        raise InputError(f"max_edge: expected two lengths >= 0 (m), got {max_edge!r}")
+    from . import _accel
+
+    ts = sorted(float(t) for t in thresholds)
+    out = np.full(spec.shape, np.nan)
+    reach = None
+    for i, t in enumerate(ts):
+        sel = zn >= t
+        if sel.sum() < 3:
+            break
+        edge = max_edge[0] if i == 0 else max_edge[1]
+        cells = None
+        if i > 0 and edge > 0 and not _accel.HAVE_NUMBA:
+            # only cells within one edge length of a point at or above t can be covered
+            if reach is None:
+                from .grid import GridAccumulator
+
+                acc = GridAccumulator(spec, ("max",))
+                acc.add(x, y, zn)
+                reach = np.nan_to_num(acc.result("max"), nan=-np.inf) if coarse is None else \
+                    np.nan_to_num(np.asarray(coarse, np.float64), nan=-np.inf)
+            k = int(math.ceil(edge / spec.res))
+            yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
+            near = ndimage.maximum_filter(reach, footprint=(xx ** 2 + yy ** 2) <= k * k + 1e-9,
+                                          mode="constant", cval=-np.inf)
+            cells = near >= t
+        tin_surface(x[sel], y[sel], zn[sel], spec, max_edge=edge, cells=cells, out=out)
+    return out
+
+
+def canopy_outliers(chm_raw, res: float, *, block: float = 5.0, gap: float = 10.0,
+                    join: float = 3.0):
+    """Cells whose highest return is an isolated outlier far above the canopy.
+
+    Rule: the canopy reference of a cell is the highest 90th percentile of the valid heights in
+    the ``block``-metre blocks of its 3 x 3 block neighbourhood. A cell is an outlier when its
+    height exceeds ``reference + max(gap, 0.3 · reference)``, unless it is joined to the canopy
+    by a continuous surface: a path of 8-neighbours each at most ``join`` metres higher than the
+    previous one, starting from a cell that is not an outlier (so a tall tree whose top rises
+    above its neighbours keeps its top, and a bird or a cloud return does not).
+
+    Parameters
+    ----------
+    chm_raw : (M, N) ndarray of float
+        Highest return above ground per cell; NaN = empty.
+    res : float
+        Cell size (m).
+
+    Returns
+    -------
+    mask : (M, N) ndarray of bool
+        Outlier cells.
+    ceiling : (M, N) ndarray of float
+        ``reference + max(gap, 0.3 · reference)`` per cell: returns above it in an outlier cell
+        are noise.
+    """
+    a = np.asarray(chm_raw, dtype=np.float64)
+    H, W = a.shape
+    b = max(1, int(round(block / res)))
+    nb_r, nb_c = -(-H // b), -(-W // b)
+    pad = np.full((nb_r * b, nb_c * b), np.nan)
+    pad[:H, :W] = a
+    blocks = pad.reshape(nb_r, b, nb_c, b).transpose(0, 2, 1, 3).reshape(nb_r, nb_c, b * b)
+    with np.errstate(all="ignore"):
+        import warnings
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            p90 = np.nanpercentile(blocks, 90, axis=2)
+    p90 = np.where(np.isfinite(p90), p90, -np.inf)
+    ref_b = ndimage.maximum_filter(p90, size=3, mode="nearest")
+    ref = np.repeat(np.repeat(ref_b, b, axis=0), b, axis=1)[:H, :W]
+    ref = np.where(np.isfinite(ref), np.maximum(ref, 0.0), 0.0)
+    ceiling = ref + np.maximum(gap, 0.3 * ref)
+    valid = np.isfinite(a)
+    cand = valid & (a > ceiling)
+    if not cand.any():
+        return cand, ceiling
+    # rescue candidates joined to the canopy by steps of at most `join` metres
+    ok = valid & ~cand
+    vals = np.where(valid, a, -np.inf)
+    shifts = [(dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1) if dr or dc]
+    while True:
+        reach = np.full(a.shape, -np.inf)  # highest accepted neighbour
+        acc = np.where(ok, vals, -np.inf)
+        padded = np.pad(acc, 1, constant_values=-np.inf)
+        for dr, dc in shifts:
+            reach = np.maximum(reach, padded[1 + dr:1 + dr + H, 1 + dc:1 + dc + W])
+        new = cand & ~ok & (vals <= reach + join)
+        if not new.any():
+            break
+        ok |= new
+    return cand & ~ok, ceiling
+
+
+def _half_correlation_distance(a: np.ndarray, res: float, level: float = 0.5,
+                               max_dist: float = 15.0) -> float:
+    """Distance (m) at which the radially averaged autocorrelation of ``a`` falls to ``level``."""
+    H, W = a.shape
+    F = np.fft.rfft2(a, s=(2 * H, 2 * W))
+    ac = np.fft.fftshift(np.fft.irfft2(np.abs(F) ** 2, s=(2 * H, 2 * W)))
+    if not ac.max() > 0:
+        return float("nan")
+    ac /= ac.max()
+    kmax = min(H, W, int(max_dist / res) + 2)
+    sub = ac[H - kmax:H + kmax + 1, W - kmax:W + kmax + 1]
+    yy, xx = np.mgrid[-kmax:kmax + 1, -kmax:kmax + 1]
+    r = np.hypot(yy, xx)
+    ring = np.round(r).astype(np.int64).ravel()
+    prof = np.bincount(ring, weights=sub.ravel()) / np.maximum(np.bincount(ring), 1)
+    below = np.nonzero(prof < level)[0]
+    if below.size == 0 or below[0] == 0:
+        return float("nan")
+    k = int(below[0])
+    frac = (prof[k - 1] - level) / (prof[k - 1] - prof[k])
+    return (k - 1 + frac) * res
+
+
+def crown_scale(chm, res: float, *, highpass: float = 10.0, window: float = 150.0,
+                min_height: float = 2.0) -> float:
+    """Crown scale of a stand (m): the distance at which the autocorrelation of the canopy
+    heights falls to one half.
+
+    Heights vary over about one crown: narrow, steep crowns (a 3 x 2 m eucalyptus stand) give
+    about 0.6 m, broad conifer crowns 2-3 m. Variations larger than ``highpass`` metres (stand
+    edges, roads, terrain left in the CHM) are removed first (Gaussian high-pass). Large grids
+    are measured on up to nine ``window``-metre windows (the median is returned).
+
+    Parameters
+    ----------
+    chm : (M, N) ndarray of float
+        NaN = nodata.
+    res : float
+        Cell size (m).
+
+    Returns
+    -------
+    float
+        Crown scale (m), clipped to [res, 10 m]; NaN when the CHM holds no canopy.
+    """
+    a = np.asarray(chm, np.float64)
+    valid = np.isfinite(a)
+    if (valid & (a >= min_height)).sum() < 25:
+        return float("nan")
+    fill = np.where(valid, a, np.nanmedian(a[valid]))
+    hp = fill - ndimage.gaussian_filter(fill, highpass / res, mode="nearest")
+    hp[~valid] = 0.0
+    H, W = a.shape
+    n = max(8, int(round(window / res)))
+    if H <= n and W <= n:
+        ls = [_half_correlation_distance(hp - hp[valid].mean(), res)]
+    else:
+        canopy = (valid & (a >= min_height)).astype(np.float64)
+        rows = np.linspace(0, max(H - n, 0), 3).astype(int)
+        cols = np.linspace(0, max(W - n, 0), 3).astype(int)
+        ls = []
+        for r0 in np.unique(rows):
+            for c0 in np.unique(cols):
+                win = hp[r0:r0 + n, c0:c0 + n]
+                if canopy[r0:r0 + n, c0:c0 + n].mean() < 0.2:
+                    continue
+                ls.append(_half_correlation_distance(win - win.mean(), res))
+        if not ls:
+            ls = [_half_correlation_distance(hp - hp[valid].mean(), res)]
+    ls = [v for v in ls if np.isfinite(v)]
+    if not ls:
+        return float("nan")
+    return float(np.clip(np.median(ls), res, 10.0))

@@ -1,0 +1,253 @@
+"""Accuracy of detected trees against reference trees, after Eysn et al. (2015).
+
+Eysn, L. et al. (2015) *A benchmark of lidar-based single tree detection methods using
+heterogeneous forest data from the Alpine Space*, Forests 6, 1721-1747. Their matching: the
+reference trees are visited from the tallest down; each takes the nearest detected tree not
+yet taken that lies within 2.5 m horizontally and whose height differs by at most 5 m.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import InputError, ReadError
+
+#: Eysn et al. 2015 matching limits
+MAX_DIST = 2.5
+MAX_DZ = 5.0
+
+
+def match_eysn(det_x, det_y, det_h, ref_x, ref_y, ref_h, *, max_dist: float = MAX_DIST,
+               max_dz: float = MAX_DZ):
+    """One-to-one matching of detected to reference trees, tallest reference first.
+
+    Parameters
+    ----------
+    det_x, det_y, det_h : (D,) array_like
+        Detected tree positions and heights (heights may be None).
+    ref_x, ref_y, ref_h : (R,) array_like
+        Reference tree positions and heights (heights may be None: no height test, references
+        visited in input order).
+    max_dist : float
+        Horizontal search radius (m).
+    max_dz : float
+        Largest height difference (m); ignored when either side has no heights.
+
+    Returns
+    -------
+    det_index, ref_index : ndarray of int64
+        Matched pairs, in the order the reference trees were visited.
+
+    Examples
+    --------
+    >>> match_eysn([0, 1.0], [0, 0], [20, 10], [0.5], [0], [19])
+    (array([0]), array([0]))
+    """
+    from scipy.spatial import cKDTree
+
+    dx, dy = np.asarray(det_x, float), np.asarray(det_y, float)
+    rx, ry = np.asarray(ref_x, float), np.asarray(ref_y, float)
+    if dx.size == 0 or rx.size == 0:
+        return np.empty(0, np.int64), np.empty(0, np.int64)
+    use_h = det_h is not None and ref_h is not None
+    dh = np.asarray(det_h, float) if use_h else None
+    rh = np.asarray(ref_h, float) if use_h else None
+    order = np.argsort(-rh, kind="stable") if use_h else np.arange(rx.size)
+    tree = cKDTree(np.c_[dx, dy])
+    taken = np.zeros(dx.size, bool)
+    md, mr = [], []
+    for i in order:
+        cand = np.asarray(tree.query_ball_point([rx[i], ry[i]], max_dist), np.int64)
+        if cand.size == 0:
+            continue
+        cand = cand[~taken[cand]]
+        if use_h and cand.size:
+            cand = cand[np.abs(dh[cand] - rh[i]) <= max_dz]
+        if cand.size == 0:
+            continue
+        d = np.hypot(dx[cand] - rx[i], dy[cand] - ry[i])
+        key = np.lexsort((np.abs(dh[cand] - rh[i]) if use_h else cand, d))
+        j = int(cand[key[0]])
+        taken[j] = True
+        md.append(j)
+        mr.append(int(i))
+    return np.asarray(md, np.int64), np.asarray(mr, np.int64)
+
+
+def _scores(n_det, n_ref, m):
+    rec = m / n_ref if n_ref else float("nan")
+    prec = m / n_det if n_det else float("nan")
+    f = 2 * prec * rec / (prec + rec) if n_det and n_ref and (prec + rec) > 0 else 0.0
+    return {"detected": int(n_det), "reference": int(n_ref), "matched": int(m),
+            "recall": rec, "precision": prec, "f_score": f}
+
+
+def evaluate_trees(det_x, det_y, det_h, ref_x, ref_y, ref_h=None, *, max_dist: float = MAX_DIST,
+                   max_dz: float = MAX_DZ) -> dict:
+    """Recall, precision, F-score and height bias / RMSE, for all and for dominant trees.
+
+    Dominant trees are those at least half as tall as the tallest reference tree; for the
+    dominant scores the detected trees of that height count, and matches are the pairs whose
+    reference tree is dominant. Height bias = mean(detected - reference).
+
+    Returns
+    -------
+    dict with ``all`` and ``dominant`` (each: detected, reference, matched, recall, precision,
+    f_score, height_bias, height_rmse) and ``pairs`` (det_index, ref_index).
+    """
+    dh = None if det_h is None else np.asarray(det_h, float)
+    rh = None if ref_h is None else np.asarray(ref_h, float)
+    d, r = match_eysn(det_x, det_y, dh, ref_x, ref_y, rh, max_dist=max_dist, max_dz=max_dz)
+    out = {"all": _scores(len(np.atleast_1d(det_x)), len(np.atleast_1d(ref_x)), len(d)),
+           "pairs": (d, r), "max_dist": max_dist, "max_dz": max_dz}
+    if rh is not None and dh is not None:
+        def hstats(dd, rr):
+            if len(dd) == 0:
+                return {"height_bias": float("nan"), "height_rmse": float("nan")}
+            e = dh[dd] - rh[rr]
+            return {"height_bias": float(np.mean(e)), "height_rmse": float(np.sqrt(np.mean(e ** 2)))}
+
+        out["all"].update(hstats(d, r))
+        half = 0.5 * float(np.nanmax(rh)) if rh.size else 0.0
+        dom_ref = rh >= half
+        keep = dom_ref[r] if len(r) else np.zeros(0, bool)
+        out["dominant"] = _scores(int((dh >= half).sum()), int(dom_ref.sum()), int(keep.sum()))
+        out["dominant"]["min_height"] = half
+        out["dominant"].update(hstats(d[keep], r[keep]))
+    return out
+
+
+_XNAMES = ("x", "easting", "east", "e", "xcoord", "x_coord", "lon")
+_YNAMES = ("y", "northing", "north", "n", "ycoord", "y_coord", "lat")
+_HNAMES = ("height", "h", "ht", "z", "tree_height", "zmax", "total_height", "altura")
+
+
+def _pick(cols, names):
+    low = {c.lower(): c for c in cols}
+    for n in names:
+        if n in low:
+            return low[n]
+    return None
+
+
+def read_trees(path, *, layer=None) -> dict:
+    """Tree positions (and heights when present) from a CSV or a vector file (GeoPackage,
+    shapefile, ...: point geometries, or polygons whose centroids are used).
+
+    CSV columns are found by name (case-insensitive): x/easting, y/northing and, optionally,
+    height/h/ht/z. A vector layer's height comes from a ``height`` (or h, ht, z) attribute.
+
+    Returns
+    -------
+    dict with ``x``, ``y``, ``height`` (None when absent), ``crs`` (WKT or None) and ``n``.
+    """
+    from pathlib import Path
+
+    p = Path(path)
+    if not p.exists():
+        raise ReadError(f"{p}: no such file")
+    if p.suffix.lower() in (".csv", ".txt"):
+        import pandas as pd
+
+        try:
+            df = pd.read_csv(p, sep=None, engine="python")
+        except Exception as exc:  # noqa: BLE001 - pandas raises many kinds
+            raise ReadError(f"{p}: cannot read as CSV ({exc})") from None
+        xc, yc = _pick(df.columns, _XNAMES), _pick(df.columns, _YNAMES)
+        if xc is None or yc is None:
+            raise InputError(f"{p}: no x/y columns found (columns: {', '.join(map(str, df.columns))}); "
+                             "name them x and y (or easting, northing)")
+        hc = _pick(df.columns, _HNAMES)
+        try:
+            x = df[xc].to_numpy(float)
+            y = df[yc].to_numpy(float)
+            h = df[hc].to_numpy(float) if hc else None
+        except ValueError as exc:
+            raise InputError(f"{p}: non-numeric values in the coordinate/height columns ({exc})") from None
+        return {"x": x, "y": y, "height": h, "crs": None, "n": len(x)}
+    import pyogrio
+
+    try:
+        layers = [lyr[0] for lyr in pyogrio.list_layers(p)]
+    except Exception as exc:  # noqa: BLE001
+        raise ReadError(f"{p}: cannot open as a vector file ({exc})") from None
+    if layer is None:
+        pts = [lyr for lyr in layers if lyr.endswith("tree_tops")]
+        layer = pts[0] if pts else layers[0]
+    elif layer not in layers:
+        raise InputError(f"{p}: no layer {layer!r}; layers: {', '.join(layers)}")
+    import geopandas as gpd
+
+    gdf = gpd.read_file(p, layer=layer)
+    if len(gdf) == 0:
+        return {"x": np.empty(0), "y": np.empty(0), "height": None,
+                "crs": gdf.crs.to_wkt() if gdf.crs else None, "n": 0}
+    geom = gdf.geometry
+    if not (geom.geom_type == "Point").all():
+        geom = geom.centroid
+    hc = _pick(gdf.columns, _HNAMES)
+    h = gdf[hc].to_numpy(float) if hc else None
+    return {"x": geom.x.to_numpy(), "y": geom.y.to_numpy(), "height": h,
+            "crs": gdf.crs.to_wkt() if gdf.crs else None, "n": len(gdf), "layer": layer}
+
+
+def evaluate_file(detected, reference, output=None, *, layer=None, ref_layer=None,
+                  max_dist: float = MAX_DIST, max_dz: float = MAX_DZ, overwrite=False,
+                  progress=None) -> dict:
+    """``lidartrees evaluate``: match the tree tops of ``detected`` to ``reference`` (Eysn et al.
+    2015) and report recall, precision, F and height bias / RMSE for all and dominant trees;
+    optionally write the report as JSON (``.json``) or the matched pairs as CSV (``.csv``)."""
+    import json
+
+    from .io.output import atomic_output, check_output
+
+    if not (max_dist > 0 and max_dz >= 0):
+        raise InputError(f"-max_dist must be > 0 and -max_dz >= 0 (got {max_dist}, {max_dz})")
+    if output is not None:
+        check_output(output, overwrite)
+    det = read_trees(detected, layer=layer)
+    ref = read_trees(reference, layer=ref_layer)
+    if ref["n"] == 0:
+        raise InputError(f"{reference}: no reference trees")
+    if det["crs"] and ref["crs"]:
+        from pyproj import CRS
+
+        if not CRS.from_wkt(det["crs"]).equals(CRS.from_wkt(ref["crs"]), ignore_axis_order=True):
+            raise InputError(f"{reference}: CRS differs from {detected}'s; reproject one of them")
+    r = evaluate_trees(det["x"], det["y"], det["height"], ref["x"], ref["y"], ref["height"],
+                       max_dist=max_dist, max_dz=max_dz)
+    d, rr = r.pop("pairs")
+    report = {"detected_file": str(detected), "reference_file": str(reference),
+              "matching": f"Eysn et al. 2015: tallest reference first, <= {max_dist:g} m "
+                          f"horizontally, <= {max_dz:g} m in height", **r}
+    if output is not None:
+        with atomic_output(output, overwrite) as tmp:
+            if str(output).lower().endswith(".csv"):
+                with open(tmp, "w", encoding="utf-8") as fh:
+                    fh.write("det_index,ref_index,det_x,det_y,ref_x,ref_y,det_height,ref_height,distance\n")
+                    for i, j in zip(d.tolist(), rr.tolist()):
+                        dhv = "" if det["height"] is None else f"{det['height'][i]:.3f}"
+                        rhv = "" if ref["height"] is None else f"{ref['height'][j]:.3f}"
+                        dist = np.hypot(det["x"][i] - ref["x"][j], det["y"][i] - ref["y"][j])
+                        fh.write(f"{i},{j},{det['x'][i]:.3f},{det['y'][i]:.3f},{ref['x'][j]:.3f},"
+                                 f"{ref['y'][j]:.3f},{dhv},{rhv},{dist:.3f}\n")
+            else:
+                tmp.write_text(json.dumps(report, indent=2, default=float))
+        report["output"] = str(output)
+    report["table"] = format_report(report)
+    return report
+
+
+def format_report(report: dict) -> str:
+    """Markdown table of an evaluation report."""
+    rows = ["| trees | detected | reference | matched | recall | precision | F | height bias (m) | "
+            "height RMSE (m) |", "|---|---|---|---|---|---|---|---|---|"]
+    for k in ("all", "dominant"):
+        if k not in report:
+            continue
+        s = report[k]
+        hb = s.get("height_bias")
+        hr = s.get("height_rmse")
+        rows.append(f"| {k} | {s['detected']} | {s['reference']} | {s['matched']} | "
+                    f"{s['recall']:.3f} | {s['precision']:.3f} | {s['f_score']:.3f} | "
+                    f"{'' if hb is None else f'{hb:+.2f}'} | {'' if hr is None else f'{hr:.2f}'} |")
+    return "\n".join(rows)

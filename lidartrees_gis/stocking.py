@@ -1,0 +1,185 @@
+"""Plantation mode: the planting grid behind the detected trees, missing trees (falhas) and
+stocking.
+
+A plantation is planted on a lattice: rows ``row_spacing`` apart, trees ``tree_spacing`` apart
+along a row (3 x 2 m in the seeds' clonal eucalyptus). :func:`fit_planting_grid` finds the row
+direction and the lattice offset that best explain the detected tops (the direction and
+phases that concentrate the tops' positions modulo the spacings, a circular-statistics fit);
+:func:`stocking` lays the lattice over the stand, gives each planting position the top nearest
+to it, and reports the positions left empty (missing trees) and the stocking percentage.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+from .errors import InputError
+
+
+@dataclass(frozen=True)
+class PlantingGrid:
+    """A planting lattice: position ``(i, j)`` (tree ``i`` along the row, row ``j``) is at
+    ``origin + i * tree_spacing * u + j * row_spacing * v`` with ``u`` the row direction
+    (azimuth ``azimuth`` degrees clockwise from grid north) and ``v`` across the rows."""
+
+    row_spacing: float
+    tree_spacing: float
+    azimuth: float
+    origin_x: float
+    origin_y: float
+    fit: float  # 0-1: how concentrated the tops are on the lattice (1 = exactly on it)
+
+    @property
+    def u(self):
+        a = np.radians(self.azimuth)
+        return np.array([np.sin(a), np.cos(a)])
+
+    @property
+    def v(self):
+        a = np.radians(self.azimuth)
+        return np.array([np.cos(a), -np.sin(a)])
+
+    def to_lattice(self, x, y):
+        """Fractional lattice coordinates ``(i, j)`` of map points."""
+        dx = np.asarray(x, float) - self.origin_x
+        dy = np.asarray(y, float) - self.origin_y
+        u, v = self.u, self.v
+        return (dx * u[0] + dy * u[1]) / self.tree_spacing, (dx * v[0] + dy * v[1]) / self.row_spacing
+
+    def to_map(self, i, j):
+        """Map coordinates of lattice coordinates ``(i, j)``."""
+        i = np.asarray(i, float)
+        j = np.asarray(j, float)
+        u, v = self.u, self.v
+        x = self.origin_x + i * self.tree_spacing * u[0] + j * self.row_spacing * v[0]
+        y = self.origin_y + i * self.tree_spacing * u[1] + j * self.row_spacing * v[1]
+        return x, y
+
+
+def _concentration(p, period):
+    z = np.exp(2j * np.pi * p / period).mean(axis=-1)
+    return np.abs(z), np.angle(z)
+
+
+def fit_planting_grid(x, y, row_spacing: float, tree_spacing: float) -> PlantingGrid:
+    """Row direction and lattice offset that best fit the tree positions ``x, y``.
+
+    Every azimuth from 0 to 180° (0.5° steps, then 0.05° around the best) is scored by the
+    product of the mean resultant lengths of the positions across the rows modulo
+    ``row_spacing`` and along the rows modulo ``tree_spacing``; the phases of the best azimuth
+    give the offset.
+
+    Parameters
+    ----------
+    x, y : (N,) array_like
+        Tree positions (map units, m); at least 10.
+    row_spacing, tree_spacing : float
+        Distance between rows and between trees in a row (m).
+    """
+    x = np.asarray(x, float)
+    y = np.asarray(y, float)
+    if x.size < 10:
+        raise InputError(f"-spacing: {x.size} trees are too few to find the planting grid "
+                         "(at least 10)")
+    if not (row_spacing > 0 and tree_spacing > 0):
+        raise InputError("-spacing: spacings must be > 0")
+    x0, y0 = float(np.mean(x)), float(np.mean(y))
+    dx, dy = x - x0, y - y0
+
+    def score(az_deg):
+        a = np.radians(np.atleast_1d(az_deg))[:, None]
+        pu = dx[None, :] * np.sin(a) + dy[None, :] * np.cos(a)
+        pv = dx[None, :] * np.cos(a) - dy[None, :] * np.sin(a)
+        ru, phu = _concentration(pu, tree_spacing)
+        rv, phv = _concentration(pv, row_spacing)
+        return ru * rv, phu, phv
+
+    coarse = np.arange(0.0, 180.0, 0.5)
+    s, _, _ = score(coarse)
+    best = float(coarse[int(np.argmax(s))])
+    fine = best + np.arange(-0.5, 0.5001, 0.05)
+    s, phu, phv = score(fine)
+    k = int(np.argmax(s))
+    az = round(float(fine[k]) % 180.0, 2) % 180.0
+    a = np.radians(az)
+    u = np.array([np.sin(a), np.cos(a)])
+    v = np.array([np.cos(a), -np.sin(a)])
+    ou = phu[k] / (2 * np.pi) * tree_spacing
+    ov = phv[k] / (2 * np.pi) * row_spacing
+    ox, oy = x0 + ou * u[0] + ov * v[0], y0 + ou * u[1] + ov * v[1]
+    return PlantingGrid(float(row_spacing), float(tree_spacing), az, float(ox), float(oy),
+                        float(s[k]))
+
+
+def stand_mask(chm, res: float, row_spacing: float, tree_spacing: float, *,
+               min_height: float = 2.0):
+    """The planted area: canopy cells (>= ``min_height``) closed over gaps up to about two
+    spacings wide, holes filled, so a missing tree inside the stand is still inside it."""
+    a = np.asarray(chm, float)
+    canopy = np.isfinite(a) & (a >= min_height)
+    r = max(1, int(np.ceil(max(row_spacing, tree_spacing) / res)))
+    yy, xx = np.mgrid[-r:r + 1, -r:r + 1]
+    disc = (xx ** 2 + yy ** 2) <= r * r
+    padded = np.pad(canopy, r + 1)
+    closed = ndimage.binary_closing(padded, structure=disc)[r + 1:-(r + 1), r + 1:-(r + 1)]
+    return ndimage.binary_fill_holes(closed | canopy)
+
+
+def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0) -> dict:
+    """Planting positions, missing trees and stocking of a plantation.
+
+    Each planting position of the fitted lattice (:func:`fit_planting_grid`) that lies in the
+    planted area (:func:`stand_mask`, at least half a spacing inside the data) takes the
+    detected top nearest to it, if that top rounds to it on the lattice. Positions with no top
+    are missing trees (falhas).
+
+    Returns
+    -------
+    dict with ``grid`` (:class:`PlantingGrid`), ``expected`` (positions), ``stocked``,
+    ``missing``, ``extra`` (tops sharing a position with another, e.g. forks or weeds),
+    ``stocking_pct``, ``planted_per_ha`` (10,000 / (R x C)), ``gaps_x``, ``gaps_y``,
+    ``gaps_i``, ``gaps_j`` (lattice indices of the missing trees).
+    """
+    R, C = spacing
+    tx = np.asarray(top_x, float)
+    ty = np.asarray(top_y, float)
+    g = fit_planting_grid(tx, ty, R, C)
+    mask = stand_mask(chm, spec.res, R, C, min_height=min_height)
+    # lattice nodes covering the grid
+    left, bottom, right, top = spec.bounds
+    ci, cj = g.to_lattice(np.array([left, left, right, right]), np.array([bottom, top, bottom, top]))
+    ii, jj = np.meshgrid(np.arange(np.floor(ci.min()) - 1, np.ceil(ci.max()) + 2),
+                         np.arange(np.floor(cj.min()) - 1, np.ceil(cj.max()) + 2))
+    ii, jj = ii.ravel(), jj.ravel()
+    nx, ny = g.to_map(ii, jj)
+    margin = 0.25 * min(R, C)
+    inside = (nx >= left + margin) & (nx <= right - margin) & (ny >= bottom + margin) & (ny <= top - margin)
+    r, c = spec.cell_index(nx, ny)
+    ok = inside & (r >= 0) & (r < spec.height) & (c >= 0) & (c < spec.width)
+    ok[ok] &= mask[r[ok], c[ok]]
+    ii, jj, nx, ny = ii[ok], jj[ok], nx[ok], ny[ok]
+    # one top per position: closest pairs first, within half the smaller spacing
+    from .trees import match_trees
+
+    node_k, top_k = match_trees(nx, ny, tx, ty, max_dist=0.5 * min(R, C))
+    stocked_mask = np.zeros(ii.size, bool)
+    stocked_mask[node_k] = True
+    expected = int(ii.size)
+    stocked = int(stocked_mask.sum())
+    gaps = ~stocked_mask
+    # tops that took no position although their nearest position is in the stand (forks,
+    # weeds, trees off the grid)
+    free = np.ones(tx.size, bool)
+    free[top_k] = False
+    fi, fj = g.to_lattice(tx[free], ty[free])
+    nodes = set(zip(ii.astype(int).tolist(), jj.astype(int).tolist()))
+    extra = sum((a, b) in nodes for a, b in zip(np.round(fi).astype(int).tolist(),
+                                                 np.round(fj).astype(int).tolist()))
+    return {"grid": g, "expected": expected, "stocked": stocked, "missing": int(gaps.sum()),
+            "extra": max(extra, 0),
+            "stocking_pct": 100.0 * stocked / expected if expected else float("nan"),
+            "planted_per_ha": 1e4 / (R * C), "planted_area_ha": float(mask.sum()) * spec.cell_area / 1e4,
+            "gaps_x": nx[gaps], "gaps_y": ny[gaps], "gaps_i": ii[gaps].astype(np.int64),
+            "gaps_j": jj[gaps].astype(np.int64)}
