@@ -140,3 +140,22 @@ def test_las_crs_classes_and_returns(data):
     assert st.count == 73403
     assert st.classes == {1: 61347, 2: 8159, 9: 3897}
     assert max(st.returns) == 6
+
+
+def test_class_filter_drops_and_counts(tmp_path):
+    import numpy as np
+
+    from lidartrees_gis.io.lasout import write_points
+    from lidartrees_gis.io.points import open_points
+
+    f = tmp_path / "c.las"
+    cls = np.array([1] * 10 + [2] * 5 + [7] * 3 + [18] * 2, np.uint8)
+    write_points(f, np.arange(20.0), np.arange(20.0), np.arange(20.0), classification=cls)
+    src = open_points(f)
+    src.set_class_filter(drop=(7, 18))
+    pts = src.read_all()
+    assert len(pts) == 15 and src.dropped == {7: 3, 18: 2}
+    src.set_class_filter(keep=(2,))
+    assert len(src.read_all()) == 5 and src.dropped == {1: 10, 7: 3, 18: 2}
+    src.set_class_filter()
+    assert len(src.read_all()) == 20 and src.dropped == {}

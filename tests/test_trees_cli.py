@@ -107,3 +107,31 @@ def test_trees_from_chm_geotiff_and_treex_csv(tmp_path, data):
     rows = list(csv.DictReader(open(c)))
     assert list(rows[0]) == ["id", "row", "col", "x", "y", "height", "crown_area"]
     assert len(rows) == len(tops)
+
+
+def test_mixedconifer_with_no_option_is_close_to_lidr(data, tmp_path):
+    """Issue 9: the bare command works and gives a lidR-like count (lidR: 205 trees)."""
+    f = data("lidR_extdata/MixedConifer.laz")
+    out = tmp_path / "out.gpkg"
+    assert main(["trees", str(f), str(out), "-q"]) == 0
+    tops = gpd.read_file(out, layer="tree_tops")
+    assert 0.75 * 205 <= len(tops) <= 1.25 * 205
+    assert tops.crs.to_epsg() == 26912 and tops.height.max() < 40
+    meta = pyogrio.read_info(out, layer="tree_tops")
+    summ = pyogrio.read_dataframe(out, layer="summary")
+    assert summ.res[0] == 0.45 and summ.tops[0] == "aw" and 1.0 < summ.crown_scale[0] < 4.0
+    assert meta["features"] == len(tops)
+
+
+def test_chm_defaults_on_bcts_give_canopy_heights(data, tmp_path):
+    """Issue 9: `chm` with no option normalises by the ground (not the near-zero -dtm min)."""
+    f = data("lasR_bcts/bcts_1.laz")
+    out = tmp_path / "chm.tif"
+    assert main(["chm", str(f), str(out), "-q"]) == 0
+    with rasterio.open(out) as ds:
+        a = ds.read(1, masked=True).compressed()
+        tags = ds.tags()
+        assert ds.res == (0.3, 0.3) and ds.crs.to_epsg() == 3005
+    assert np.median(a[a > 2]) > 5
+    assert '"chm": "pitfree"' in tags["LIDARTREES_PARAMETERS"]
+    assert '"dtm": "ground"' in tags["LIDARTREES_PARAMETERS"]

@@ -1,0 +1,107 @@
+"""Pit-free / TIN CHMs, the noise guard and the automatic cell size (issue 9)."""
+import numpy as np
+import pytest
+
+from lidartrees_gis import _accel
+from lidartrees_gis.chm import (canopy_outliers, chm_resolution, crown_scale, pitfree_chm,
+                                tin_surface)
+from lidartrees_gis.grid import GridSpec
+
+
+def test_chm_resolution_rule():
+    assert chm_resolution(47_000, 10_000.0) == 0.45     # 4.7 pts/m2 -> sqrt(1/n) = 0.461
+    assert chm_resolution(40_000, 10_000.0) == 0.5      # 4 pts/m2
+    assert chm_resolution(250_000, 10_000.0) == 0.25    # 25 pts/m2: the 0.25 m floor
+    assert chm_resolution(15_000, 10_000.0) == 0.8      # 1.5 pts/m2 -> 0.816
+
+
+def test_tin_of_a_plane_is_the_plane_and_long_edges_leave_holes():
+    rng = np.random.default_rng(1)
+    x = 500_000 + rng.random(4000) * 20
+    y = 7_000_000 + rng.random(4000) * 20
+    x[(x > 500_008) & (x < 500_012)] += 10.0  # a 4 m wide strip without points
+    keep = x < 500_020
+    x, y = x[keep], y[keep]
+    z = 2.0 * (x - 500_000) + 3.0 * (y - 7_000_000) + 1.0
+    spec = GridSpec.from_bounds(500_000, 7_000_000, 500_020, 7_000_020, 0.5)
+    full = tin_surface(x, y, z, spec)
+    r, c = np.nonzero(np.isfinite(full))
+    cx, cy = spec.xy(r, c)
+    np.testing.assert_allclose(full[r, c], 2.0 * (cx - 500_000) + 3.0 * (cy - 7_000_000) + 1.0,
+                               atol=1e-6)
+    cut = tin_surface(x, y, z, spec, max_edge=1.0)
+    col = int((500_010 - spec.left) / 0.5)
+    assert np.isnan(cut[:, col]).all() and np.isfinite(full[5:-5, col]).all()
+
+
+@pytest.mark.skipif(not _accel.HAVE_NUMBA, reason="numba not installed")
+def test_compiled_and_numpy_tin_agree(monkeypatch):
+    rng = np.random.default_rng(2)
+    x, y = rng.random(3000) * 30, rng.random(3000) * 30
+    z = np.sin(x) * 3 + y * 0.2 + rng.random(3000)
+    spec = GridSpec.from_bounds(0, 0, 30, 30, 0.3)
+    a = tin_surface(x, y, z, spec, max_edge=0.8)
+    monkeypatch.setattr(_accel, "HAVE_NUMBA", False)
+    b = tin_surface(x, y, z, spec, max_edge=0.8)
+    assert np.array_equal(np.isnan(a), np.isnan(b))
+    np.testing.assert_allclose(a[np.isfinite(a)], b[np.isfinite(b)], atol=1e-9)
+
+
+def _cone_points(rng, n=6000, top=20.0, radius=3.0, ground_share=0.2):
+    """First returns on a cone crown; ``ground_share`` of them fall through to the ground."""
+    x = rng.uniform(-4, 4, n)
+    y = rng.uniform(-4, 4, n)
+    d = np.hypot(x, y)
+    z = np.clip(top * (1 - d / radius), 0, None)
+    through = rng.random(n) < ground_share
+    z[through] = 0.0
+    return x, y, z
+
+
+def test_pitfree_fills_the_pits_that_the_max_chm_keeps():
+    from lidartrees_gis.grid import GridAccumulator, fill_gaps
+
+    rng = np.random.default_rng(3)
+    x, y, z = _cone_points(rng, n=900, ground_share=0.25)  # ~14 returns per m2
+    spec = GridSpec.from_bounds(-4, -4, 4, 4, 0.25)
+    acc = GridAccumulator(spec, ("max",))
+    acc.add(x, y, z)
+    mx = fill_gaps(acc.result("max"), "mean8")
+    pf = pitfree_chm(x, y, z, spec, max_edge=(0.0, 1.5))
+    r, c = np.mgrid[0:spec.height, 0:spec.width]
+    cx, cy = spec.xy(r.ravel(), c.ravel())
+    cone = np.clip(20 * (1 - np.hypot(cx, cy) / 3.0), 0, None).reshape(spec.shape)
+    inner = cone > 5  # inside the crown, away from its edge
+    pits_max = (mx < cone - 3) & inner
+    pits_pf = (pf < cone - 3) & inner
+    assert pits_max.sum() > 10 and pits_pf.sum() == 0
+    # and it never invents height: at most the highest return near the cell
+    assert np.nanmax(pf) <= z.max() + 1e-9
+
+
+def test_canopy_outliers_flag_noise_but_keep_a_tall_tree():
+    res = 0.5
+    chm = np.full((120, 120), 20.0) + np.random.default_rng(4).normal(0, 0.5, (120, 120))
+    yy, xx = np.mgrid[0:120, 0:120]
+    cone = 45.0 - np.hypot(yy - 60, xx - 60) * res * 6.0  # an emergent tree 25 m above the canopy
+    chm = np.maximum(chm, cone)
+    noise = [(10, 10), (10, 11), (100, 30), (30, 100)]
+    for r, c in noise:
+        chm[r, c] = 150.0
+    mask, ceiling = canopy_outliers(chm, res)
+    assert {tuple(p) for p in np.argwhere(mask)} == set(noise)
+    assert not mask[60, 60] and (ceiling < 150).all()
+
+
+def test_crown_scale_grows_with_the_crowns():
+    def stand(radius, spacing, res=0.25, n=240):
+        yy, xx = np.mgrid[0:n, 0:n] * res
+        ty = (np.floor(yy / spacing) + 0.5) * spacing
+        tx = (np.floor(xx / spacing) + 0.5) * spacing
+        d = np.hypot(yy - ty, xx - tx)
+        return np.clip(20 - 10 * (d / radius) ** 2, 2, None)
+
+    small = crown_scale(stand(1.2, 2.0), 0.25)
+    big = crown_scale(stand(3.6, 6.0), 0.25)
+    assert 0.2 < small < 1.2 and 2.0 < big / small < 4.5
+    assert np.isnan(crown_scale(np.zeros((50, 50)), 0.25))

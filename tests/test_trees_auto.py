@@ -1,0 +1,233 @@
+"""Issue 9: automatic smoothing and window, seed fidelity (TreeX, strict maxima), evaluation
+after Eysn et al. (2015), plantation mode, noise handling, defaults on the CLI."""
+import json
+
+import geopandas as gpd
+import numpy as np
+import pyogrio
+import pytest
+
+from lidartrees_gis.cli import main
+from lidartrees_gis.detect import adaptive_maxima, local_maxima, treex_maxima
+from lidartrees_gis.evaluate import evaluate_trees, match_eysn
+from lidartrees_gis.grid import GridSpec
+from lidartrees_gis.stocking import fit_planting_grid, stocking
+from lidartrees_gis.trees import TreeParams, detect_trees, parse_spacing
+
+
+def crowns(shape, tops, res, radius):
+    """Paraboloid crowns (m): tops = [(x, y, h)] in metres from the upper-left corner."""
+    yy, xx = (np.mgrid[0:shape[0], 0:shape[1]] + 0.5) * res
+    chm = np.zeros(shape)
+    for x, y, h in tops:
+        z = h - 8.0 * ((xx - x) ** 2 + (yy - y) ** 2) / radius ** 2
+        chm = np.maximum(chm, z)
+    return chm
+
+
+def rc(res, x, y):
+    return int(y / res), int(x / res)
+
+
+# --- seed fidelity ---------------------------------------------------------------------------
+def test_treex_keeps_both_of_two_trees_2m_apart():
+    res = 0.2
+    tops = [(5.1, 5.1, 22.0), (7.1, 5.1, 21.0)]  # cell centres 2 m apart, in one 6 m2 window
+    chm = crowns((50, 60), tops, res, radius=1.5)
+    for area in (6.0, 16.0):  # windows of 2.4 m and 4 m
+        r, c = treex_maxima(chm, res, mean_crown_area=area, sd_crown_area=2.0)
+        assert sorted(zip(r.tolist(), c.tolist())) == sorted(rc(res, x, y) for x, y, _ in tops)
+    # the extra centred-window test of the earlier reading drops the lower one when the window
+    # reaches the other tree
+    r2, _ = treex_maxima(chm, res, mean_crown_area=16.0, sd_crown_area=2.0, centred=True)
+    assert len(r2) == 1
+
+
+def test_strict_rule_gives_no_top_on_a_flat_top():
+    chm = np.zeros((9, 9))
+    chm[3:5, 3:6] = 10.0  # a 2 x 3 plateau
+    chm[7, 7] = 5.0
+    r, c = local_maxima(chm)
+    assert len(r) == 2  # one per plateau
+    r, c = local_maxima(chm, strict=True)
+    assert list(zip(r.tolist(), c.tolist())) == [(7, 7)]
+
+
+def test_table1_order_can_appear_with_the_strict_rule():
+    # plateaus of two equal cells: lm counts each once, strict not at all, the watershed's
+    # basins still do, so "watershed unsmoothed > region growing unsmoothed" (seed Table 1)
+    chm = crowns((40, 40), [(3.5, 3.5, 20), (9.5, 3.5, 20), (3.5, 9.5, 20), (9.5, 9.5, 20)], 1.0,
+                 radius=3)
+    chm[3, 4] = chm[3, 3]  # the first top is a plateau of two cells
+    spec = GridSpec(0, 40, 1.0, 40, 40)
+    lm = detect_trees(chm, spec, TreeParams(smooth="none", tops="lm"))["table"]["x"].size
+    strict = detect_trees(chm, spec, TreeParams(smooth="none", tops="strict"))["table"]["x"].size
+    ws = detect_trees(chm, spec, TreeParams(method="watershed", smooth="none"))["table"]["x"].size
+    assert strict == lm - 1 and ws > strict
+
+
+# --- adaptive window ---------------------------------------------------------------------------
+def test_adaptive_window_scales_with_crowns_and_height():
+    res = 0.25
+    # a dense plantation: trees 2 m apart, crown scale 0.6 m -> every tree found
+    tops = [(x, y, 23.0 + ((i * 7 + j * 3) % 5 - 2) * 0.8)
+            for i, x in enumerate(np.arange(1.5, 30, 3.0)) for j, y in enumerate(np.arange(1, 30, 2.0))]
+    chm = crowns((120, 120), tops, res, radius=1.5)
+    r, c = adaptive_maxima(chm, res, crown_scale=0.6, dominant_height=24.0)
+    assert len(r) == len(tops)
+    # a broad crown with a side bump 2.5 m from its apex: one top with a conifer's crown scale,
+    # two with a tiny one
+    big = crowns((80, 80), [(10, 10, 30.0)], res, radius=6.0)
+    bump = crowns((80, 80), [(12.5, 10, 29.8)], res, radius=0.8)
+    chm2 = np.maximum(big, bump)
+    assert len(adaptive_maxima(chm2, res, crown_scale=2.0, dominant_height=30.0)[0]) == 1
+    assert len(adaptive_maxima(chm2, res, crown_scale=0.3, dominant_height=30.0)[0]) == 2
+
+
+def test_spacing_sets_the_crown_scale_and_auto_is_recorded():
+    res = 0.25
+    tops = [(x, y, 23.0) for x in np.arange(1.5, 15, 3.0) for y in np.arange(1, 15, 2.0)]
+    chm = crowns((60, 60), tops, res, radius=1.5)
+    spec = GridSpec(0, 15, res, 60, 60)
+    r = detect_trees(chm, spec, TreeParams(spacing="3x2"))
+    assert r["auto"]["crown_scale"] == pytest.approx(0.6) and r["auto"]["crown_scale_source"] == "spacing"
+    assert r["tops"] == "aw" and len(r["table"]["x"]) == len(tops)
+    assert parse_spacing("3 x 2") == (3.0, 2.0)
+    with pytest.raises(ValueError, match="-spacing"):
+        TreeParams(spacing="3by2")
+
+
+# --- evaluation (Eysn et al. 2015) --------------------------------------------------------------
+def test_eysn_matching_tallest_first_with_distance_and_height_limits():
+    ref_x, ref_y, ref_h = [0.0, 1.0, 10.0, 20.0], [0.0, 0.0, 0.0, 0.0], [30.0, 20.0, 25.0, 15.0]
+    det_x = [0.6, 12.6, 20.0, 40.0]
+    det_y = [0.0, 0.0, 0.0, 0.0]
+    det_h = [29.0, 24.0, 8.0, 10.0]
+    d, r = match_eysn(det_x, det_y, det_h, ref_x, ref_y, ref_h)
+    # the tallest reference takes the detection between it and the 20 m tree; the 25 m tree's
+    # candidate is 2.6 m away (> 2.5 m); the 15 m tree's is 7 m lower (> 5 m)
+    assert d.tolist() == [0] and r.tolist() == [0]
+    e = evaluate_trees(det_x, det_y, det_h, ref_x, ref_y, ref_h)
+    assert e["all"]["recall"] == 0.25 and e["all"]["precision"] == 0.25
+    assert e["all"]["height_bias"] == pytest.approx(-1.0)
+    # dominant: references >= 15 m (half of 30 m): all four; detections >= 15 m: two
+    assert e["dominant"]["reference"] == 4 and e["dominant"]["detected"] == 2
+    e2 = evaluate_trees(det_x, det_y, det_h, ref_x, ref_y, ref_h, max_dist=3.0, max_dz=20.0)
+    assert e2["all"]["matched"] == 3
+
+
+def test_evaluate_cli_writes_report_and_pairs(tmp_path):
+    gdf = gpd.GeoDataFrame({"tree_id": [1, 2, 3], "height": [20.0, 18.0, 5.0]},
+                           geometry=gpd.points_from_xy([0.0, 3.0, 9.0], [0.0, 0.0, 0.0]),
+                           crs="EPSG:31984")
+    tops = tmp_path / "t.gpkg"
+    gdf.to_file(tops, layer="tree_tops")
+    ref = tmp_path / "ref.csv"
+    ref.write_text("X;Y;Altura\n0,5;0;21\n3;0,5;18,5\n6;0;19\n".replace(",", ".").replace(";", ","))
+    out = tmp_path / "report.json"
+    assert main(["evaluate", str(tops), str(ref), "-o", str(out), "-q"]) == 0
+    rep = json.loads(out.read_text())
+    assert rep["all"]["matched"] == 2 and rep["all"]["recall"] == pytest.approx(2 / 3)
+    assert rep["all"]["precision"] == pytest.approx(2 / 3)
+    assert main(["evaluate", str(tops), str(ref), "-o", str(out), "-q"]) == 1  # exists
+    pairs = tmp_path / "pairs.csv"
+    assert main(["evaluate", str(tops), str(ref), "-o", str(pairs), "-q"]) == 0
+    assert len(pairs.read_text().splitlines()) == 3
+    bad = tmp_path / "bad.csv"
+    bad.write_text("a,b\n1,2\n")
+    assert main(["evaluate", str(tops), str(bad), "-q"]) == 1
+
+
+# --- plantation mode --------------------------------------------------------------------------
+def test_planting_grid_recovers_azimuth_and_gaps():
+    rng = np.random.default_rng(5)
+    az = 30.0
+    u = np.array([np.sin(np.radians(az)), np.cos(np.radians(az))])
+    v = np.array([np.cos(np.radians(az)), -np.sin(np.radians(az))])
+    ii, jj = np.meshgrid(np.arange(-12, 13), np.arange(-8, 9))
+    px = 1000 + ii.ravel() * 2.0 * u[0] + jj.ravel() * 3.0 * v[0]
+    py = 2000 + ii.ravel() * 2.0 * u[1] + jj.ravel() * 3.0 * v[1]
+    g = fit_planting_grid(px + rng.normal(0, 0.1, px.size), py + rng.normal(0, 0.1, py.size), 3, 2)
+    assert min(abs(g.azimuth - az), 180 - abs(g.azimuth - az)) < 0.5 and g.fit > 0.8
+
+
+def test_stocking_finds_the_missing_trees_of_a_stand(stand):
+    pts, truth = stand
+    from lidartrees_gis.pipeline import _bilinear  # noqa: F401  (pipeline import check)
+
+    res = 0.25
+    spec = GridSpec.from_bounds(truth["x"].min() - 1.5, truth["y"].min() - 1.0,
+                                truth["x"].max() + 1.5, truth["y"].max() + 1.0, res)
+    yy, xx = np.mgrid[0:spec.height, 0:spec.width]
+    cx, cy = spec.xy(yy.ravel(), xx.ravel())
+    chm = np.zeros(spec.shape)
+    from scipy.spatial import cKDTree
+
+    d, k = cKDTree(np.c_[truth["x"], truth["y"]]).query(np.c_[cx, cy])
+    chm = (truth["height"][k] - 8 * (d / 1.5) ** 2).clip(0).reshape(spec.shape)
+    st = stocking(truth["x"], truth["y"], chm, spec, (3.0, 2.0))
+    assert st["grid"].azimuth in (0.0,) or abs(st["grid"].azimuth - 180) < 0.1
+    # every gap is a planting position left empty in the stand, and every such position is a gap
+    miss = np.c_[truth["_missing_x"], truth["_missing_y"]]
+    inside = (miss[:, 0] > spec.left) & (miss[:, 1] > spec.top - spec.height * res)
+    dd, _ = cKDTree(miss[inside]).query(np.c_[st["gaps_x"], st["gaps_y"]])
+    assert st["missing"] == inside.sum() and (dd < 0.5).all()
+    assert st["stocked"] == len(truth["x"]) and st["extra"] == 0
+    assert st["stocking_pct"] == pytest.approx(100 * st["stocked"] / st["expected"])
+
+
+# --- noise and defaults end to end -------------------------------------------------------------
+def _write_stand_las(path, pts, extra_xyz=None, extra_class=1):
+    from lidartrees_gis.io.lasout import write_points
+
+    x, y, z, cls = pts.x, pts.y, pts.z, pts.classification
+    if extra_xyz is not None:
+        ex, ey, ez = extra_xyz
+        x, y, z = np.r_[x, ex], np.r_[y, ey], np.r_[z, ez]
+        cls = np.r_[cls, np.full(len(ex), extra_class, np.uint8)]
+    from pyproj import CRS
+
+    write_points(path, x, y, z, crs=CRS.from_epsg(31984), classification=cls)
+
+
+@pytest.mark.parametrize("cls", [18, 1])
+def test_noise_points_at_150m_give_no_tree_above_60m(tmp_path, stand, cls):
+    pts, truth = stand
+    rng = np.random.default_rng(6)
+    k = rng.choice(len(pts.x), 20, replace=False)
+    f = tmp_path / "noisy.las"
+    _write_stand_las(f, pts, (pts.x[k], pts.y[k], np.full(20, 600.0 + 150.0)), extra_class=cls)
+    out = tmp_path / "t.gpkg"
+    res_json = tmp_path / "r.json"
+    assert main(["trees", str(f), str(out), "-q", "--result-json", str(res_json)]) == 0
+    tops = gpd.read_file(out, layer="tree_tops")
+    assert tops.height.max() < 60 and tops.height.max() == pytest.approx(truth["height"].max(), abs=1.0)
+    r = json.loads(res_json.read_text())
+    if cls == 18:
+        assert r["dropped_classes"] == {"18": 20}
+    else:  # unclassified: removed by the outlier guard
+        assert r["outlier_points"] >= 20 - 1 and r["dropped_classes"] is None
+    # asked to keep them, they become the 150 m "trees" users complained about
+    keep = ["-drop_class", "none", "-keep_outliers"] if cls == 18 else ["-keep_outliers"]
+    assert main(["trees", str(f), str(out), "-q", "-overwrite", *keep]) == 0
+    assert gpd.read_file(out, layer="tree_tops").height.max() > 140
+
+
+def test_plantation_mode_writes_gaps_and_stocking(tmp_path, stand):
+    pts, truth = stand
+    f = tmp_path / "stand.las"
+    _write_stand_las(f, pts)
+    out = tmp_path / "t.gpkg"
+    assert main(["trees", str(f), str(out), "-spacing", "3x2", "-q"]) == 0
+    layers = {n for n, _ in pyogrio.list_layers(out)}
+    assert {"tree_tops", "crowns", "gaps", "summary"} <= layers
+    gaps = gpd.read_file(out, layer="gaps")
+    summ = pyogrio.read_dataframe(out, layer="summary")
+    assert gaps.crs.to_epsg() == 31984 and len(gaps) == int(summ.missing_trees[0])
+    assert summ.spacing[0] == "3x2" and summ.planting_positions[0] == 600
+    # the stand lost 8 of its 600 positions: each is found as a gap
+    from scipy.spatial import cKDTree
+
+    d, _ = cKDTree(np.c_[gaps.x, gaps.y]).query(np.c_[truth["_missing_x"], truth["_missing_y"]])
+    assert (d < 0.5).all()
+    assert 96.0 <= summ.stocking_pct[0] <= 100 * 592 / 600 + 1e-9
