@@ -218,3 +218,31 @@ def test_stem_and_profile_algorithms(qgis_app, tmp_path, data):
     r = run("profile", {"INPUT": str(f), "OUTPUT": str(tmp_path / "parts.laz")})
     b = json.loads((tmp_path / "parts_boundaries.json").read_text())
     assert b["stem_start"] < b["canopy_start"] and Path(r["OUTPUT"]).exists()
+
+
+def test_plantation_mode_loads_gaps_and_evaluate_runs(qgis_app, tmp_path, stand):
+    """Issue 9 in QGIS: trees with SPACING loads a styled gaps layer; evaluate reports F."""
+    import processing
+    from pyproj import CRS
+    from qgis.core import QgsProject
+
+    from lidartrees_gis.io.lasout import write_points
+    from lidartrees_gis.synthetic import write_truth_csv
+
+    pts, truth = stand
+    las = tmp_path / "stand.las"
+    write_points(las, pts.x, pts.y, pts.z, crs=CRS.from_epsg(29194),
+                 classification=pts.classification)
+    gpkg = tmp_path / "t.gpkg"
+    res = processing.runAndLoadResults("lidartrees:trees", {
+        "INPUT": str(las), "OUTPUT": str(gpkg), "SPACING": "3x2"})
+    assert res["TREES"] > 560
+    gaps = QgsProject.instance().mapLayersByName("gaps")
+    assert gaps and gaps[0].featureCount() >= 8 and gaps[0].crs().authid() == "EPSG:29194"
+    assert gaps[0].renderer().type() == "singleSymbol"
+    ref = tmp_path / "truth.csv"
+    write_truth_csv(ref, truth)
+    rep = tmp_path / "report.json"
+    run("evaluate", {"DETECTED": str(gpkg), "REFERENCE": str(ref), "REPORT": str(rep)})
+    r = json.loads(rep.read_text())
+    assert r["all"]["f_score"] >= 0.97 and r["all"]["reference"] == len(truth["x"])
