@@ -49,6 +49,8 @@ CONFIGS = {
     "seed 000 rg + gauss5 (-chm max -tr 0.5)":
         {"chm": "max", "res": 0.5, "params": TreeParams(smooth="gauss5", tops="lm")},
     "pitfree + gauss3 + lm": {"params": TreeParams(smooth="gauss3", tops="lm")},
+    "height-only window (-tops vwf: 0.1 h + 0.5 m, lidR-style)":
+        {"params": TreeParams(smooth="none", tops="vwf")},
     "TreeX (-method treex)": {"params": TreeParams(method="treex")},
 }
 
@@ -187,8 +189,10 @@ def main():
         for name in names:
             cfg = CONFIGS[name]
             print(f"== {name}", file=sys.stderr, flush=True)
-            c = {"synthetic": synthetic(tmp, cfg), "mixedconifer": mixedconifer(tmp, cfg),
-                 "neon_teak": neon(tmp, cfg)}
+            plantation_only = "spacing" in name  # a planting spacing means nothing elsewhere
+            c = {"synthetic": synthetic(tmp, cfg),
+                 "mixedconifer": {} if plantation_only else mixedconifer(tmp, cfg),
+                 "neon_teak": {} if plantation_only else neon(tmp, cfg)}
             if name == "defaults" and not a.quick:
                 c["bcts"] = bcts(tmp, cfg)
             res["configurations"][name] = c

@@ -64,6 +64,29 @@ def _centres_where(spec: GridSpec, mask):
     return r, c, x, y
 
 
+def triangulate(x, y, z):
+    """2-D Delaunay triangulation: ``(px, py, pz, triangles)``.
+
+    With startinpy (Rust, MIT licence; about 10x faster than Qhull here) coincident points keep
+    the highest z; otherwise scipy's Qhull. Coordinates should be local (small numbers).
+    """
+    try:
+        import startinpy
+    except ImportError:  # pragma: no cover - depends on the environment
+        startinpy = None
+    if startinpy is not None:
+        dt = startinpy.DT()
+        dt.duplicates_handling = "Highest"
+        dt.insert(np.column_stack([x, y, z]))
+        p = np.asarray(dt.points)
+        tri = np.asarray(dt.triangles, dtype=np.int64)
+        return p[:, 0], p[:, 1], p[:, 2], tri  # vertex 0 is startin's infinite vertex, unused
+    from scipy.spatial import Delaunay
+
+    tri = Delaunay(np.column_stack([x, y]))
+    return x, y, z, tri.simplices.astype(np.int64)
+
+
 def tin_surface(x, y, z, spec: GridSpec, *, max_edge: float = 0.0, cells=None,
                 out=None) -> np.ndarray:
     """Linear TIN of points ``(x, y, z)`` sampled at the cell centres of ``spec``.
@@ -93,19 +116,23 @@ def tin_surface(x, y, z, spec: GridSpec, *, max_edge: float = 0.0, cells=None,
     x, y, z = (np.asarray(a, np.float64) for a in (x, y, z))
     if x.size < 3:
         return out
-    # triangulate in local coordinates (large UTM values lose precision in qhull)
+    # triangulate in local coordinates (large UTM values lose precision)
     x0, y0 = float(x.min()), float(y.min())
+    if _accel.HAVE_NUMBA:
+        try:
+            px, py, pz, simp = triangulate(x - x0, y - y0, z)
+        except (QhullError, ValueError, RuntimeError):
+            return out
+        if len(simp):
+            _accel.raster_triangles(px, py, pz, simp, float(max_edge), spec.left - x0,
+                                    spec.top - y0, spec.res, spec.height, spec.width, out)
+        return out
     pts = np.column_stack([x - x0, y - y0])
     try:
         tri = Delaunay(pts)
     except (QhullError, ValueError):
         return out
     simp = tri.simplices
-    if _accel.HAVE_NUMBA:
-        _accel.raster_triangles(pts[:, 0], pts[:, 1], z, simp.astype(np.int64), float(max_edge),
-                                spec.left - x0, spec.top - y0, spec.res, spec.height, spec.width,
-                                out)
-        return out
     if max_edge and max_edge > 0:
         p = pts[simp]  # (T, 3, 2)
         e = np.stack([np.hypot(*(p[:, i] - p[:, (i + 1) % 3]).T) for i in range(3)], axis=1)

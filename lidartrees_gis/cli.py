@@ -65,8 +65,9 @@ def _print_result(name, res, quiet, as_json):
                 print(f"{k}: {v}")
         return
     for k, v in res.items():
-        if v is not None and k not in ("table",):
-            print(f"{k}: {v}", file=sys.stderr)
+        if v is None or k == "table" or (isinstance(v, dict) and "table" in res):
+            continue  # dicts shown by the table are not repeated
+        print(f"{k}: {v}", file=sys.stderr)
     if "table" in res:
         print(res["table"])
 

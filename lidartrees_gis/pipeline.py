@@ -603,14 +603,24 @@ def trees_file(input, output, *, res="auto", params=None, dtm="auto", chm="pitfr
            "res": spec.res, "chm": built.get("chm", "input raster"),
            "smooth": srow["smooth"], "tops": srow["tops"],
            "crown_scale": None if not np.isfinite(srow["crown_scale"]) else round(srow["crown_scale"], 3),
-           "mean_height": srow["mean_height"], "mean_crown_diameter": srow["mean_crown_diameter"],
-           "trees_per_ha": srow["trees_per_ha"],
+           "mean_height": _round(srow["mean_height"], 2),
+           "mean_crown_diameter": _round(srow["mean_crown_diameter"], 2),
+           "trees_per_ha": _round(srow["trees_per_ha"], 1),
            "dropped_classes": built.get("dropped_classes"), "outlier_points": built.get("outlier_points"),
            "result": result, "spec": spec}
     if "stocking_pct" in srow:
         out.update({k: srow[k] for k in ("spacing", "row_azimuth", "planting_positions",
-                                         "missing_trees", "stocking_pct")})
+                                         "missing_trees")})
+        out["stocking_pct"] = _round(srow["stocking_pct"], 2)
     return out
+
+
+def _round(v, n):
+    """Round a number for reports; NaN and None stay as they are."""
+    try:
+        return round(float(v), n) if np.isfinite(v) else v
+    except (TypeError, ValueError):
+        return v
 
 
 def compare_file(input, output, *, res="auto", dtm="auto", chm="pitfree", fill="mean8",
