@@ -103,6 +103,23 @@ def synthetic(tmp: Path, cfg: dict) -> dict:
     return out
 
 
+def density_sweep(tmp: Path) -> dict:
+    """Defaults on the 3 x 2 m stand at 4-12 pts/m² (two seeds each)."""
+    out = {}
+    for dens in (4.0, 6.0, 8.0, 12.0):
+        for seed in (3, 11):
+            pts, truth = make_stand(StandParams(seed=seed, density=dens))
+            f = tmp / f"sweep_{seed}_{dens:g}.las"
+            write_las(f, pts)
+            r = run(f, tmp / "s.gpkg")
+            t = r["result"]["table"]
+            e = evaluate_trees(t["x"], t["y"], t["height"], truth["x"], truth["y"], truth["height"])
+            out[f"{dens:g} pts/m², seed {seed}"] = {
+                "res": r["res"], "f_score": round(e["all"]["f_score"], 4),
+                "recall": round(e["all"]["recall"], 4), "precision": round(e["all"]["precision"], 4)}
+    return out
+
+
 def mixedconifer(tmp: Path, cfg: dict) -> dict:
     import laspy
 
@@ -195,6 +212,7 @@ def main():
                  "neon_teak": {} if plantation_only else neon(tmp, cfg)}
             if name == "defaults" and not a.quick:
                 c["bcts"] = bcts(tmp, cfg)
+                c["synthetic_density_sweep"] = density_sweep(tmp)
             res["configurations"][name] = c
             syn = "  ".join(f"F={v['all']['f_score']:.3f}" for v in c["synthetic"].values())
             print(f"   synthetic {syn} | MixedConifer {c['mixedconifer'].get('trees')} trees | NEON "

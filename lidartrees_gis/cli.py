@@ -15,6 +15,13 @@ from .errors import Cancelled, LidarTreesError
 from .progress import LineProgress, NullProgress, TqdmProgress
 
 
+def _help(p):
+    text = p.help + (f" [{p.unit}]" if p.unit else "")
+    if p.default not in (None, False, "") and not p.positional:
+        text += f" (default: {p.default})"
+    return text.replace("%", "%%")
+
+
 def _add_param(sp, p):
     if p.positional:
         if p.required or p.kind not in ("outdir",):
@@ -24,14 +31,14 @@ def _add_param(sp, p):
         return
     flags = [p.flag, *p.aliases]
     if p.kind == "bool":
-        sp.add_argument(*flags, dest=p.name, action="store_true", default=p.default, help=p.help)
+        sp.add_argument(*flags, dest=p.name, action="store_true", default=p.default, help=_help(p))
     elif p.kind == "kv":
-        sp.add_argument(*flags, dest=p.name, action="append", metavar="KEY=VALUE", help=p.help)
+        sp.add_argument(*flags, dest=p.name, action="append", metavar="KEY=VALUE", help=_help(p))
     elif p.kind == "choice":
-        sp.add_argument(*flags, dest=p.name, choices=p.choices, default=p.default, help=p.help)
+        sp.add_argument(*flags, dest=p.name, choices=p.choices, default=p.default, help=_help(p))
     else:
         sp.add_argument(*flags, dest=p.name, default=p.default, required=p.required,
-                        metavar=p.name.upper(), help=p.help + (f" [{p.unit}]" if p.unit else ""))
+                        metavar=p.name.upper(), help=_help(p))
 
 
 def build_parser() -> argparse.ArgumentParser:
