@@ -215,7 +215,7 @@ def pitfree_chm(x, y, zn, spec: GridSpec, *, thresholds=PITFREE_THRESHOLDS, max_
 
 
 def canopy_outliers(chm_raw, res: float, *, block: float = 5.0, gap: float = 10.0,
-                    join: float = 3.0):
+                    join: float = 3.0, origin=None):
     """Cells whose highest return is an isolated outlier far above the canopy.
 
     Rule: the canopy reference of a cell is the highest 90th percentile of the valid heights in
@@ -231,6 +231,9 @@ def canopy_outliers(chm_raw, res: float, *, block: float = 5.0, gap: float = 10.
         Highest return above ground per cell; NaN = empty.
     res : float
         Cell size (m).
+    origin : (left, top), optional
+        Map coordinates of the grid's upper-left corner: blocks are then aligned to multiples of
+        ``block`` metres, so tiles of one area agree with the whole.
 
     Returns
     -------
@@ -243,9 +246,13 @@ def canopy_outliers(chm_raw, res: float, *, block: float = 5.0, gap: float = 10.
     a = np.asarray(chm_raw, dtype=np.float64)
     H, W = a.shape
     b = max(1, int(round(block / res)))
-    nb_r, nb_c = -(-H // b), -(-W // b)
+    r0 = c0 = 0
+    if origin is not None:
+        c0 = int(round(origin[0] / res)) % b
+        r0 = int(round(-origin[1] / res)) % b
+    nb_r, nb_c = -(-(H + r0) // b), -(-(W + c0) // b)
     pad = np.full((nb_r * b, nb_c * b), np.nan)
-    pad[:H, :W] = a
+    pad[r0:r0 + H, c0:c0 + W] = a
     blocks = pad.reshape(nb_r, b, nb_c, b).transpose(0, 2, 1, 3).reshape(nb_r, nb_c, b * b)
     with np.errstate(all="ignore"):
         import warnings
@@ -255,7 +262,7 @@ def canopy_outliers(chm_raw, res: float, *, block: float = 5.0, gap: float = 10.
             p90 = np.nanpercentile(blocks, 90, axis=2)
     p90 = np.where(np.isfinite(p90), p90, -np.inf)
     ref_b = ndimage.maximum_filter(p90, size=3, mode="nearest")
-    ref = np.repeat(np.repeat(ref_b, b, axis=0), b, axis=1)[:H, :W]
+    ref = np.repeat(np.repeat(ref_b, b, axis=0), b, axis=1)[r0:r0 + H, c0:c0 + W]
     ref = np.where(np.isfinite(ref), np.maximum(ref, 0.0), 0.0)
     ceiling = ref + np.maximum(gap, 0.3 * ref)
     valid = np.isfinite(a)

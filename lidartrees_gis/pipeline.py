@@ -232,7 +232,7 @@ def compute_surfaces(src: PointSource, res, *, dtm="auto", fill="mean8", chm="ma
     out_points = 0
     ceiling = None
     if outliers:
-        out_cells, ceiling = canopy_outliers(chm_raw, res)
+        out_cells, ceiling = canopy_outliers(chm_raw, res, origin=(spec.left, spec.top))
     if out_cells.any():
         out_points = int(out_cells.sum())
         dsm_raw = np.where(out_cells, np.nan, dsm_raw)

@@ -42,7 +42,10 @@ def _rg_kernel(chm, seeds_r, seeds_c, hmax, hmin, step, labels):
         tail += 1
     dr = np.array([-1, 1, 0, 0])
     dc = np.array([0, 0, -1, 1])
-    thr = hmax - step
+    lev = int(np.floor(hmax / step))
+    if lev * step >= hmax:
+        lev -= 1
+    thr = lev * step
     while thr > hmin:
         if tail == 0:
             break
@@ -79,7 +82,8 @@ def _rg_kernel(chm, seeds_r, seeds_c, hmax, hmin, step, labels):
                 alive[j] = True
                 j += 1
         tail = j
-        thr -= step
+        lev -= 1
+        thr = lev * step
     return labels
 
 
@@ -91,7 +95,9 @@ def region_growing(chm, rows, cols, *, step: float = 0.1, min_height: float = 2.
 
     A FIFO queue starts with the seeds (in the given order). A threshold starts at the highest
     CHM value minus ``step`` and falls by ``step`` after each pass until it reaches
-    ``min_height``. In a pass every queued cell gives its label to its unlabelled 4-neighbours
+    ``min_height``; the thresholds are the multiples of ``step`` (the first one is the highest
+    multiple below the maximum, less than ``step`` above Annex 2's start), so a tile and the
+    whole area grow the same crowns. In a pass every queued cell gives its label to its unlabelled 4-neighbours
     higher than the threshold, which join the end of the queue (and are visited in the same
     pass); a cell with no unlabelled neighbour that could still be labelled leaves the queue.
     A small step (0.1 m) gives round crowns, a large one (2 m) ragged crowns.

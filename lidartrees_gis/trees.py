@@ -80,6 +80,9 @@ class TreeParams:
         (:func:`lidartrees_gis.chm.crown_scale`) or from ``spacing``.
     window_factor : float
         Adaptive window radius for a tree of the dominant height, in crown scales.
+    dominant_height : float, optional
+        Dominant height (m) for the adaptive window; default the 95th percentile of the CHM's
+        canopy heights (tiled runs measure it once for the whole area).
     treex_centred : bool
         TreeX: also require a top to be the highest of the window centred on it (drops one of
         two close trees; off as in the seed).
@@ -99,6 +102,7 @@ class TreeParams:
     crown_scale: float | None = None
     window_factor: float = 0.9
     treex_centred: bool = False
+    dominant_height: float | None = None
 
     def __post_init__(self):
         if self.method not in METHODS:
@@ -153,7 +157,10 @@ def resolve_auto(chm, res: float, p: TreeParams) -> dict:
         L, src = crown_scale(a, res, min_height=p.min_height), "measured"
         if not np.isfinite(L):
             L, src = 2.0 * res, "default (no canopy to measure)"
-    hd = float(np.percentile(canopy, 95)) if canopy.size else max(p.min_height, 1.0)
+    if p.dominant_height is not None:
+        hd = float(p.dominant_height)
+    else:
+        hd = float(np.percentile(canopy, 95)) if canopy.size else max(p.min_height, 1.0)
     sigma = SIGMA_FACTOR * L
     smooth = f"gauss:{sigma:.3f}" if sigma / res >= 1.0 / 3.0 else "none"
     return {"crown_scale": float(L), "crown_scale_source": src, "dominant_height": hd,

@@ -1,0 +1,275 @@
+"""Many point files as one acquisition, cut into tiles with buffers (lidR's LAScatalog idea).
+
+* :func:`expand_inputs` — files, folders, globs, text lists (one path a line) and virtual point
+  clouds (``.vpc``, the STAC ItemCollection QGIS and PDAL write) to a list of files;
+* :class:`Catalog` — the files with their bounds, point counts and CRS (from LAS headers; XYZ
+  files are scanned once);
+* :func:`make_tiles` — square tiles aligned to multiples of the tile size, each with a core (the
+  trees whose top falls in it belong to it) and a buffer around it;
+* :class:`TileSource` — the points of every file that fall in one buffered tile, read chunk by
+  chunk with the class filter, with the interface of :class:`~lidartrees_gis.io.points.PointSource`
+  that :func:`~lidartrees_gis.pipeline.compute_surfaces` needs.
+"""
+from __future__ import annotations
+
+import glob
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import CRSError, InputError, ReadError
+from .io.points import LAS_SUFFIXES, PointChunk
+
+POINT_SUFFIXES = (".las", ".laz", ".xyz", ".txt", ".csv", ".pts", ".gz")
+
+
+def _vpc_files(path: Path) -> list:
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise ReadError(f"{path}: cannot read as a virtual point cloud (JSON): {exc}") from None
+    out = []
+    for feat in doc.get("features", []):
+        href = (feat.get("assets", {}).get("data", {}) or {}).get("href")
+        if not href:
+            continue
+        p = Path(href)
+        out.append(p if p.is_absolute() else (path.parent / p).resolve())
+    if not out:
+        raise InputError(f"{path}: the virtual point cloud lists no files (features[].assets.data.href)")
+    return out
+
+
+def expand_inputs(inputs) -> list:
+    """Point files named by ``inputs`` (a path or a list of them): files, folders (their point
+    files), glob patterns, ``.txt``/``.lst`` lists of paths (one per line, relative to the
+    list) and ``.vpc`` virtual point clouds. Order is kept; duplicates are dropped."""
+    items = [inputs] if isinstance(inputs, (str, Path)) else list(inputs)
+    out = []
+    for it in items:
+        s = str(it)
+        p = Path(s)
+        if any(ch in s for ch in "*?[") and not p.exists():
+            hits = sorted(glob.glob(s))
+            if not hits:
+                raise ReadError(f"{s}: the pattern matches no file")
+            out += [Path(h) for h in hits]
+        elif p.is_dir():
+            found = sorted(q for q in p.iterdir() if q.suffix.lower() in POINT_SUFFIXES and q.is_file())
+            if not found:
+                raise ReadError(f"{p}: the folder holds no point file ({', '.join(POINT_SUFFIXES)})")
+            out += found
+        elif p.suffix.lower() == ".vpc":
+            out += _vpc_files(p)
+        elif p.suffix.lower() in (".lst",) or (p.suffix.lower() == ".txt" and _is_list(p)):
+            base = p.parent
+            for line in p.read_text(encoding="utf-8").splitlines():
+                line = line.strip()
+                if line and not line.startswith("#"):
+                    q = Path(line)
+                    out.append(q if q.is_absolute() else base / q)
+        else:
+            out.append(p)
+    seen, uniq = set(), []
+    for q in out:
+        k = str(Path(q).resolve())
+        if k not in seen:
+            seen.add(k)
+            uniq.append(Path(q))
+    for q in uniq:
+        if not q.exists():
+            raise ReadError(f"{q}: no such file")
+    return uniq
+
+
+def _is_list(p: Path) -> bool:
+    """A .txt file whose first non-empty line names an existing point file."""
+    try:
+        with open(p, encoding="utf-8", errors="replace") as fh:
+            for line in fh:
+                line = line.strip()
+                if line:
+                    q = Path(line)
+                    q = q if q.is_absolute() else p.parent / q
+                    return q.suffix.lower() in POINT_SUFFIXES and q.exists()
+    except OSError:
+        return False
+    return False
+
+
+@dataclass
+class Catalog:
+    """Point files with their XY bounds, point counts and one CRS."""
+
+    files: list
+    bounds: list  # per file (xmin, ymin, xmax, ymax)
+    counts: list
+    crs: object = None
+    read_kw: dict = field(default_factory=dict)
+
+    @classmethod
+    def open(cls, inputs, *, a_srs=None, **read_kw) -> "Catalog":
+        """Read the headers (LAS) or scan the files (XYZ) named by ``inputs``."""
+        from .io.points import open_points
+
+        files = expand_inputs(inputs)
+        bounds, counts, crs = [], [], None
+        for f in files:
+            src = open_points(f, a_srs=a_srs, **read_kw)
+            hb = src.header_bounds() if src.format == "las" else None
+            if hb is not None and src.count_hint:
+                bounds.append(tuple(hb))
+                counts.append(int(src.count_hint))
+            else:
+                st = src.scan()
+                bounds.append(tuple(st.bounds))
+                counts.append(int(st.count))
+            if src.crs is not None:
+                if crs is None:
+                    crs = src.crs
+                elif not crs.equals(src.crs, ignore_axis_order=True):
+                    raise CRSError(f"{f}: CRS {src.crs.to_string()} differs from the other files' "
+                                   f"{crs.to_string()}; reproject them first or give -a_srs")
+        return cls(files, bounds, counts, crs, {"a_srs": a_srs, **read_kw})
+
+    @property
+    def extent(self) -> tuple:
+        b = np.asarray(self.bounds, float)
+        return (float(b[:, 0].min()), float(b[:, 1].min()), float(b[:, 2].max()), float(b[:, 3].max()))
+
+    @property
+    def count(self) -> int:
+        return int(sum(self.counts))
+
+    @property
+    def area(self) -> float:
+        """Covered area (m²): the sum of the files' bounding boxes (tiles do not overlap)."""
+        return float(sum(max(b[2] - b[0], 0) * max(b[3] - b[1], 0) for b in self.bounds))
+
+    def files_for(self, box) -> list:
+        """Files whose bounds intersect ``box`` (xmin, ymin, xmax, ymax)."""
+        x0, y0, x1, y1 = box
+        return [f for f, b in zip(self.files, self.bounds)
+                if b[0] <= x1 and b[2] >= x0 and b[1] <= y1 and b[3] >= y0]
+
+
+@dataclass(frozen=True)
+class Tile:
+    """One tile: ``core`` (trees whose top is in it belong to it, half-open on the east and
+    north edges) and ``box`` (core plus buffer, clipped to the data)."""
+
+    index: tuple
+    core: tuple
+    box: tuple
+
+    def in_core(self, x, y):
+        x0, y0, x1, y1 = self.core
+        x = np.asarray(x)
+        y = np.asarray(y)
+        return (x >= x0) & (x < x1) & (y >= y0) & (y < y1)
+
+
+def make_tiles(extent, tile_size: float, buffer: float) -> list:
+    """Tiles of ``tile_size`` m aligned to multiples of it, covering ``extent``; the last row and
+    column also hold points exactly on the extent's east/north edge."""
+    if not (tile_size > 0 and buffer >= 0):
+        raise InputError(f"-tile_size must be > 0 and -buffer >= 0 (got {tile_size}, {buffer})")
+    x0, y0, x1, y1 = extent
+    i0, i1 = math.floor(x0 / tile_size), math.floor(x1 / tile_size)
+    j0, j1 = math.floor(y0 / tile_size), math.floor(y1 / tile_size)
+    if (i1 - i0 + 1) * (j1 - j0 + 1) > 1_000_000:
+        raise InputError(f"-tile_size {tile_size} m makes more than a million tiles over "
+                         f"{x1 - x0:.0f} x {y1 - y0:.0f} m")
+    tiles = []
+    eps = 1e-6
+    for j in range(j0, j1 + 1):
+        for i in range(i0, i1 + 1):
+            cx0, cy0 = i * tile_size, j * tile_size
+            cx1, cy1 = cx0 + tile_size, cy0 + tile_size
+            if i == i1:
+                cx1 = max(cx1, x1 + eps)
+            if j == j1:
+                cy1 = max(cy1, y1 + eps)
+            box = (max(cx0 - buffer, x0), max(cy0 - buffer, y0), min(cx1 + buffer, x1),
+                   min(cy1 + buffer, y1))
+            if box[2] <= box[0] or box[3] <= box[1]:
+                continue
+            tiles.append(Tile((i, j), (cx0, cy0, cx1, cy1), box))
+    return tiles
+
+
+class TileSource:
+    """The points of a catalog inside one box, for :func:`~lidartrees_gis.pipeline.compute_surfaces`.
+
+    Reads every file that intersects the box chunk by chunk and keeps the points inside it;
+    the class filter of :meth:`set_class_filter` applies.
+    """
+
+    format = "tile"
+    repro = None
+    skipped = 0
+
+    def __init__(self, catalog: Catalog, box, *, chunk_size: int = 1_000_000):
+        self.catalog = catalog
+        self.box = tuple(float(v) for v in box)
+        self.files = catalog.files_for(self.box)
+        self.path = Path(f"tile {self.box[0]:.0f},{self.box[1]:.0f}")
+        self.crs = catalog.crs
+        self.chunk_size = chunk_size
+        self.drop_classes = frozenset()
+        self.keep_classes = None
+        self.dropped: dict = {}
+
+    def set_class_filter(self, drop=None, keep=None) -> None:
+        self.drop_classes = frozenset(int(c) for c in (drop or ()))
+        self.keep_classes = None if keep is None else frozenset(int(c) for c in keep)
+
+    def header_bounds(self):
+        return self.box
+
+    @property
+    def count_hint(self):
+        return None
+
+    def chunks(self, progress=None):
+        from .io.points import open_points
+
+        x0, y0, x1, y1 = self.box
+        self.dropped = {}
+        for f in self.files:
+            kw = {k: v for k, v in self.catalog.read_kw.items() if v is not None}
+            src = open_points(f, chunk_size=self.chunk_size, **kw)
+            src.set_class_filter(self.drop_classes, None if self.keep_classes is None
+                                 else sorted(self.keep_classes))
+            for c in src.chunks():
+                m = (c.x >= x0) & (c.x <= x1) & (c.y >= y0) & (c.y <= y1)
+                if m.any():
+                    yield c.subset(m) if not m.all() else c
+            for k, v in src.dropped.items():
+                self.dropped[k] = self.dropped.get(k, 0) + v
+
+    def read_all(self, progress=None) -> PointChunk:
+        return PointChunk.concat(self.chunks(progress))
+
+    def scan(self, progress=None):
+        raise InputError("a tile is scanned through its catalog")
+
+
+def is_catalog_input(inputs) -> bool:
+    """True when ``inputs`` names more than one file or a folder, glob, list or .vpc."""
+    if not isinstance(inputs, (str, Path)):
+        return len(list(inputs)) > 1 or any(is_catalog_input(i) for i in inputs)
+    s = str(inputs)
+    p = Path(s)
+    if p.is_dir() or p.suffix.lower() in (".vpc", ".lst"):
+        return True
+    if any(ch in s for ch in "*?[") and not p.exists():
+        return True
+    return p.suffix.lower() == ".txt" and p.exists() and _is_list(p)
+
+
+__all__ = ["Catalog", "Tile", "TileSource", "expand_inputs", "make_tiles", "is_catalog_input",
+           "LAS_SUFFIXES"]
