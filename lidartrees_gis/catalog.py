@@ -178,6 +178,8 @@ def make_tiles(extent, tile_size: float, buffer: float) -> list:
     if not (tile_size > 0 and buffer >= 0):
         raise InputError(f"-tile_size must be > 0 and -buffer >= 0 (got {tile_size}, {buffer})")
     x0, y0, x1, y1 = extent
+    if math.isinf(tile_size):  # one tile: the whole area
+        return [Tile((0, 0), (x0, y0, x1 + 1e-6, y1 + 1e-6), (x0, y0, x1, y1))]
     i0, i1 = math.floor(x0 / tile_size), math.floor(x1 / tile_size)
     j0, j1 = math.floor(y0 / tile_size), math.floor(y1 / tile_size)
     if (i1 - i0 + 1) * (j1 - j0 + 1) > 1_000_000:

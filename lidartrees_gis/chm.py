@@ -23,6 +23,9 @@ from .grid import GridSpec
 #: Khosravipour et al. 2014 / lidR ``pitfree`` height thresholds (m)
 PITFREE_THRESHOLDS = (0.0, 2.0, 5.0, 10.0, 15.0)
 CHM_KINDS = ("pitfree", "max", "tin")
+#: triangles with a wider circumcircle (m) are not drawn: the surface then depends only on the
+#: points within two radii of a cell, so tiles with that much buffer agree with the whole area
+LOCAL_RADIUS = 10.0
 
 
 def chm_resolution(count: int, area: float) -> float:
@@ -64,6 +67,18 @@ def _centres_where(spec: GridSpec, mask):
     return r, c, x, y
 
 
+def _circumradius(px, py, tri):
+    ax, ay = px[tri[:, 0]], py[tri[:, 0]]
+    bx, by = px[tri[:, 1]], py[tri[:, 1]]
+    cx, cy = px[tri[:, 2]], py[tri[:, 2]]
+    a = np.hypot(bx - cx, by - cy)
+    b = np.hypot(ax - cx, ay - cy)
+    c = np.hypot(ax - bx, ay - by)
+    area2 = np.abs((bx - ax) * (cy - ay) - (cx - ax) * (by - ay))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(area2 > 0, a * b * c / (2.0 * area2), np.inf)
+
+
 def triangulate(x, y, z):
     """2-D Delaunay triangulation: ``(px, py, pz, triangles)``.
 
@@ -87,8 +102,19 @@ def triangulate(x, y, z):
     return x, y, z, tri.simplices.astype(np.int64)
 
 
+def tiebreak(x, y, scale: float = 1e-5):
+    """Tiny deterministic offsets (at most ``scale``/2 m) computed from each point's own map
+    coordinates: they make exactly cocircular points (frequent on a 1 cm LAS lattice) generic,
+    so the Delaunay triangulation, and the surface, of a tile equals that of the whole area."""
+    x = np.asarray(x, np.float64)
+    y = np.asarray(y, np.float64)
+    h1 = np.sin(x * 12.9898 + y * 78.233) * 43758.5453
+    h2 = np.sin(x * 39.3467 + y * 11.1351) * 24634.6345
+    return scale * (h1 - np.floor(h1) - 0.5), scale * (h2 - np.floor(h2) - 0.5)
+
+
 def tin_surface(x, y, z, spec: GridSpec, *, max_edge: float = 0.0, cells=None,
-                out=None) -> np.ndarray:
+                out=None, max_radius: float = 0.0) -> np.ndarray:
     """Linear TIN of points ``(x, y, z)`` sampled at the cell centres of ``spec``.
 
     Parameters
@@ -102,6 +128,10 @@ def tin_surface(x, y, z, spec: GridSpec, *, max_edge: float = 0.0, cells=None,
         which visits only the cells under each triangle anyway).
     out : (M, N) ndarray of float, optional
         Draw into this grid, keeping the higher value in each cell (NaN = empty).
+    max_radius : float
+        Triangles whose circumcircle is wider than this radius (m) are left out (0: keep all).
+        The kept triangles then depend only on the points within two radii, so a tile with that
+        much buffer gets the same surface as the whole area (compiled path only).
 
     Returns
     -------
@@ -119,10 +149,13 @@ def tin_surface(x, y, z, spec: GridSpec, *, max_edge: float = 0.0, cells=None,
     # triangulate in local coordinates (large UTM values lose precision)
     x0, y0 = float(x.min()), float(y.min())
     if _accel.HAVE_NUMBA:
+        jx, jy = tiebreak(x, y)
         try:
-            px, py, pz, simp = triangulate(x - x0, y - y0, z)
+            px, py, pz, simp = triangulate(x - x0 + jx, y - y0 + jy, z)
         except (QhullError, ValueError, RuntimeError):
             return out
+        if max_radius and max_radius > 0 and len(simp):
+            simp = simp[_circumradius(px, py, simp) <= max_radius]
         if len(simp):
             _accel.raster_triangles(px, py, pz, simp, float(max_edge), spec.left - x0,
                                     spec.top - y0, spec.res, spec.height, spec.width, out)
@@ -210,7 +243,8 @@ def pitfree_chm(x, y, zn, spec: GridSpec, *, thresholds=PITFREE_THRESHOLDS, max_
             near = ndimage.maximum_filter(reach, footprint=(xx ** 2 + yy ** 2) <= k * k + 1e-9,
                                           mode="constant", cval=-np.inf)
             cells = near >= t
-        tin_surface(x[sel], y[sel], zn[sel], spec, max_edge=edge, cells=cells, out=out)
+        tin_surface(x[sel], y[sel], zn[sel], spec, max_edge=edge, cells=cells, out=out,
+                    max_radius=LOCAL_RADIUS)
     return out
 
 

@@ -205,7 +205,8 @@ def rasterize(x, y, z, spec: GridSpec, stat: str = "max") -> np.ndarray:
 _K8 = np.array([[1, 1, 1], [1, 0, 1], [1, 1, 1]], dtype=np.float64)
 
 
-def fill_mean8(grid: np.ndarray, *, max_passes: int | None = None, progress=None) -> np.ndarray:
+def fill_mean8(grid: np.ndarray, *, max_passes: int | None = None, mask=None,
+               progress=None) -> np.ndarray:
     """Fill empty (NaN) cells with the mean of their filled 8-neighbours, until none is empty.
 
     Seed 000, §2.3.1. Each pass is *simultaneous* (Jacobi): every empty cell that has at least
@@ -219,6 +220,8 @@ def fill_mean8(grid: np.ndarray, *, max_passes: int | None = None, progress=None
         NaN marks empty cells.
     max_passes : int, optional
         Stop after this many passes (default: until no empty cell remains).
+    mask : (M, N) ndarray of bool, optional
+        Only these cells are filled (e.g. the data footprint); the others stay NaN.
 
     Returns
     -------
@@ -232,8 +235,12 @@ def fill_mean8(grid: np.ndarray, *, max_passes: int | None = None, progress=None
     array([[1., 2., 3.]])
     """
     out = np.array(grid, dtype=np.float64, copy=True)
+    if mask is not None:
+        out[~np.asarray(mask, bool)] = np.nan
     empty = np.isnan(out)
-    if not empty.any() or empty.all():
+    if mask is not None:
+        empty &= np.asarray(mask, bool)
+    if not empty.any() or np.isnan(out).all():
         return out
     total = int(empty.sum())
     passes = 0
@@ -244,6 +251,8 @@ def fill_mean8(grid: np.ndarray, *, max_passes: int | None = None, progress=None
         s = ndimage.convolve(vals, _K8, mode="constant", cval=0.0)
         n = ndimage.convolve(filled.astype(np.float64), _K8, mode="constant", cval=0.0)
         take = empty & (n > 0)
+        if not take.any():  # the rest cannot be reached (outside the mask)
+            break
         out[take] = s[take] / n[take]
         empty &= ~take
         passes += 1
@@ -253,13 +262,28 @@ def fill_mean8(grid: np.ndarray, *, max_passes: int | None = None, progress=None
     return out
 
 
-def fill_gaps(grid: np.ndarray, method: str = "mean8", progress=None) -> np.ndarray:
-    """Fill empty cells by ``method``: ``mean8`` (seed 000) or ``none``."""
+def fill_gaps(grid: np.ndarray, method: str = "mean8", progress=None, mask=None) -> np.ndarray:
+    """Fill empty cells by ``method``: ``mean8`` (seed 000) or ``none``; with ``mask`` only
+    those cells are filled and the others are set to NaN."""
     if method in (None, "none"):
-        return np.asarray(grid, dtype=np.float64)
+        out = np.asarray(grid, dtype=np.float64)
+        if mask is not None:
+            out = np.where(mask, out, np.nan)
+        return out
     if method == "mean8":
-        return fill_mean8(grid, progress=progress)
+        return fill_mean8(grid, progress=progress, mask=mask)
     raise InputError(f"-fill: unknown method {method!r}; use mean8 or none")
+
+
+def data_footprint(occupied, res: float, distance: float = 2.0) -> np.ndarray:
+    """Cells within ``distance`` metres (at least one cell) of a cell that holds points: where
+    surfaces are filled and trees looked for; beyond it there are no data (outside the survey,
+    between files, water without returns) and the grids hold nodata."""
+    occ = np.asarray(occupied, bool)
+    if occ.all() or not occ.any():
+        return occ.copy() if not occ.any() else np.ones(occ.shape, bool)
+    d = ndimage.distance_transform_edt(~occ) * res
+    return d <= max(distance, res * 1.01)
 
 
 def resample_to(src_array, src_spec: GridSpec, spec: GridSpec) -> np.ndarray:
@@ -280,10 +304,16 @@ def resample_to(src_array, src_spec: GridSpec, spec: GridSpec) -> np.ndarray:
     return dst
 
 
-def interpolate_tin(x, y, z, spec: GridSpec) -> np.ndarray:
+#: DTM triangles with a wider circumcircle are not used (cells there take the nearest point)
+DTM_MAX_RADIUS = 10.0
+
+
+def interpolate_tin(x, y, z, spec: GridSpec, *, max_radius: float = DTM_MAX_RADIUS) -> np.ndarray:
     """Linear interpolation on the Delaunay triangulation of points, sampled at cell centres.
 
-    Cells outside the convex hull take the value of the nearest point.
+    Triangles whose circumcircle is wider than ``max_radius`` (m) are not used (with numba), so
+    the surface at a cell depends only on the points within two radii (tiles agree with the
+    whole); cells outside the triangles take the value of the nearest point.
     """
     from scipy.interpolate import LinearNDInterpolator, NearestNDInterpolator
 
@@ -292,6 +322,19 @@ def interpolate_tin(x, y, z, spec: GridSpec) -> np.ndarray:
         if x.size == 0:
             raise InputError("no points to interpolate a surface from")
         return np.full(spec.shape, float(np.mean(z)))
+    if _accel.HAVE_NUMBA:  # compiled rasteriser; the same surface wherever the grid is cut
+        from .chm import tin_surface
+
+        lin = tin_surface(x, y, z, spec, max_radius=max_radius)
+        bad = np.isnan(lin)
+        if bad.any():  # outside the hull or under a wide triangle: the nearest point
+            from scipy.spatial import cKDTree
+
+            rows, cols = np.nonzero(bad)
+            cx, cy = spec.xy(rows, cols)
+            _, k = cKDTree(np.column_stack([x, y])).query(np.column_stack([cx, cy]))
+            lin[rows, cols] = z[k]
+        return lin
     rows, cols = np.mgrid[0:spec.height, 0:spec.width]
     cx, cy = spec.xy(rows.ravel(), cols.ravel())
     pts = np.column_stack([x, y])

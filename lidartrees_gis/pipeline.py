@@ -16,7 +16,7 @@ from . import __version__
 from .crs import crs_label
 from .errors import InputError
 from .grid import (GridAccumulator, GridSpec, LowestPoints, auto_resolution, check_resolution,
-                   fill_gaps, interpolate_tin, resample_to)
+                   data_footprint, fill_gaps, interpolate_tin, resample_to)
 from .io.points import PointSource, open_points
 from .io.raster import read_raster, write_geotiff
 from .progress import SubProgress, as_progress, check_cancel
@@ -162,7 +162,8 @@ def compute_surfaces(src: PointSource, res, *, dtm="auto", fill="mean8", chm="ma
     from), ``spec``, ``res``, ``dtm_method``, ``chm_method``, ``points``, ``dropped`` (points per
     dropped class), ``outlier_cells`` and ``outlier_points``.
     """
-    from .chm import CHM_KINDS, canopy_outliers, pitfree_chm, pitfree_edge, tin_surface
+    from .chm import (CHM_KINDS, LOCAL_RADIUS, canopy_outliers, pitfree_chm, pitfree_edge,
+                      tin_surface)
 
     prog = as_progress(progress)
     if chm not in CHM_KINDS:
@@ -172,7 +173,9 @@ def compute_surfaces(src: PointSource, res, *, dtm="auto", fill="mean8", chm="ma
     spec = grid_spec_for(src, res, SubProgress(prog, 0.0, 0.3))
     stats = ("max", "min") if method.kind == "min" else ("max",)
     acc = GridAccumulator(spec, stats)
-    gacc = GridAccumulator(spec, ("min",)) if method.kind in ("ground", "auto") else None
+    # the lowest ground (class 2) return of each cell, at its own position (a TIN through cell
+    # centres would be ambiguous on the regular lattice)
+    gacc = LowestPoints(spec) if method.kind in ("ground", "auto") else None
     lacc = None
     if method.kind in ("lowest", "auto"):
         size = method.size or 5.0
@@ -199,22 +202,23 @@ def compute_surfaces(src: PointSource, res, *, dtm="auto", fill="mean8", chm="ma
             f" left after dropping classes {sorted(src.dropped)}" if src.dropped else ""))
     check_cancel(prog)
     dsm_raw = acc.result("max")
+    # the data footprint: cells within 2 m (or 3 point spacings) of a cell with points
+    footprint = data_footprint(np.isfinite(dsm_raw), spec.res,
+                               max(2.0, 3.0 * math.sqrt(spec.cell_area * np.isfinite(dsm_raw).sum() / n)))
     kind = method.kind
     if kind == "auto":
-        kind = "ground" if int(np.isfinite(gacc.result("min")).sum()) >= 3 else "lowest"
+        kind = "ground" if int((gacc.count > 0).sum()) >= 3 else "lowest"
     prog.update(0.82, "terrain")
     if kind == "min":
         dtm_arr = fill_gaps(acc.result("min"), fill)
     elif kind == "none":
         dtm_arr = np.zeros(spec.shape)
     elif kind == "ground":
-        gmin = gacc.result("min")
-        r, c = np.nonzero(~np.isnan(gmin))
-        if r.size == 0:
+        gx, gy, gz = gacc.points(min_share=0.0)
+        if gx.size == 0:
             raise InputError(f"{src.path}: -dtm ground: the file has no ground (class 2) points; "
                              "use -dtm auto, lowest:R, kp or a DTM GeoTIFF")
-        gx, gy = spec.xy(r, c)
-        dtm_arr = interpolate_tin(gx, gy, gmin[r, c], spec)
+        dtm_arr = interpolate_tin(gx, gy, gz, spec)
     elif kind == "lowest":
         dtm_arr = interpolate_tin(*lacc.points(), spec)
     elif kind == "kp":
@@ -237,7 +241,7 @@ def compute_surfaces(src: PointSource, res, *, dtm="auto", fill="mean8", chm="ma
         out_points = int(out_cells.sum())
         dsm_raw = np.where(out_cells, np.nan, dsm_raw)
     prog.update(0.88, "filling gaps")
-    dsm = fill_gaps(dsm_raw, fill, progress=SubProgress(prog, 0.88, 0.9))
+    dsm = fill_gaps(dsm_raw, fill, progress=SubProgress(prog, 0.88, 0.9), mask=footprint)
     if chm == "max":
         chm_arr = dsm - dtm_arr
         heights = chm_arr
@@ -257,13 +261,13 @@ def compute_surfaces(src: PointSource, res, *, dtm="auto", fill="mean8", chm="ma
         prog.update(0.9, f"{chm} CHM")
         check_cancel(prog)
         if chm == "tin":
-            chm_arr = tin_surface(x, y, zn, spec)
+            chm_arr = tin_surface(x, y, zn, spec, max_radius=LOCAL_RADIUS)
         else:
             if max_edge is None:
                 max_edge = pitfree_edge(x.size, float(np.isfinite(dsm_raw).sum()) * spec.cell_area)
             chm_arr = pitfree_chm(x, y, zn, spec, max_edge=(0.0, max_edge),
                                   coarse=np.where(out_cells, np.nan, chm_raw))
-        chm_arr = fill_gaps(chm_arr, fill)
+        chm_arr = fill_gaps(chm_arr, fill, mask=footprint)
         # tree heights: the highest return of a cell is above the TIN at its centre
         heights = np.fmax(chm_arr, dsm_raw - dtm_arr)
     prog.update(0.95, "canopy height")

@@ -1,0 +1,428 @@
+"""Tiled processing of many files with buffers, on Dask (lidR LAScatalog semantics).
+
+The area of a :class:`~lidartrees_gis.catalog.Catalog` is cut into tiles aligned to multiples of
+the tile size; each tile is processed with a buffer around it as one task: its points (from
+every file that touches the buffered tile) become a CHM, trees are detected on it, and only the
+trees whose top lies in the tile's core are kept, with their whole crowns (grown inside the
+buffer). Every choice that the defaults make from the data (cell size, crown scale, dominant
+height) is made once for the whole area before the tiles run, and tree ids come from the top's
+cell in the global grid, so the trees do not depend on the tiling. Memory is bounded by one
+buffered tile per worker; results are merged by the calling process as tiles finish.
+
+Tasks run in this process with ``workers=1``, on a local ``dask.distributed`` cluster with
+``workers`` processes (default: all cores), or on an existing cluster (``scheduler`` address).
+"""
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+
+from .catalog import Catalog, Tile, TileSource, make_tiles
+from .errors import InputError
+from .progress import as_progress, check_cancel
+
+#: default tile side (m)
+TILE_SIZE = 250.0
+#: default buffer = BUFFER_CROWNS x the crown scale, at least MIN_BUFFER m (two DTM triangle
+#: radii, see :data:`lidartrees_gis.grid.DTM_MAX_RADIUS`)
+BUFFER_CROWNS = 8.0
+MIN_BUFFER = 20.0
+
+
+def _surfaces(catalog: Catalog, box, opts: dict) -> dict:
+    from .pipeline import compute_surfaces, parse_classes
+
+    src = TileSource(catalog, box)
+    src.set_class_filter(drop=parse_classes(opts["drop_class"]) or (),
+                         keep=parse_classes(opts["keep_class"], "-keep_class"))
+    return compute_surfaces(src, opts["res"], dtm=opts["dtm"], fill=opts["fill"],
+                            chm=opts["chm"], outliers=opts["outliers"])
+
+
+def _window_density(catalog: Catalog, box, opts: dict) -> float:
+    """Points per m² inside ``box``, over the 1 m cells that hold points (so edges, gaps
+    between files and a file's empty corners do not count)."""
+    from .pipeline import parse_classes
+
+    src = TileSource(catalog, box)
+    src.set_class_filter(drop=parse_classes(opts["drop_class"]) or (),
+                         keep=parse_classes(opts["keep_class"], "-keep_class"))
+    n, cells = 0, set()
+    for c in src.chunks():
+        n += len(c)
+        cells.update(np.unique(np.floor(c.x).astype(np.int64) * 10_000_019
+                               + np.floor(c.y).astype(np.int64)).tolist())
+    return n / len(cells) if cells else float("nan")
+
+
+def area_parameters(catalog: Catalog, res, params, opts: dict, *, window: float = 150.0) -> dict:
+    """Cell size, crown scale and dominant height of the whole area, measured once.
+
+    All three are measured on a ``window``-metre square at the middle of the area (or at the
+    middle of the first file that holds canopy, if the middle has none): the point density
+    over the 1 m cells holding points gives the cell size, the CHM the crown scale and the
+    dominant height. They depend on the points only, not on how the area is tiled or split
+    into files.
+    """
+    from .chm import chm_resolution, crown_scale
+    from .grid import check_resolution
+    from .trees import SPACING_FACTOR
+
+    fixed_res = None if res is None or str(res).strip().lower() == "auto" else check_resolution(res)
+    out = {"res": fixed_res, "crown_scale": params.crown_scale,
+           "dominant_height": params.dominant_height}
+    if params.crown_scale is None and params.spacing is not None:
+        out["crown_scale"] = SPACING_FACTOR * min(params.spacing)
+    x0, y0, x1, y1 = catalog.extent
+    centres = [((x0 + x1) / 2, (y0 + y1) / 2)] + [((b[0] + b[2]) / 2, (b[1] + b[3]) / 2)
+                                                 for b in catalog.bounds]
+    for cx, cy in centres:
+        h = window / 2
+        box = (max(cx - h, x0), max(cy - h, y0), min(cx + h, x1), min(cy + h, y1))
+        r = fixed_res
+        if r is None:
+            dens = _window_density(catalog, box, opts)
+            if not np.isfinite(dens):
+                continue
+            r = chm_resolution(int(round(dens * 1e6)), 1e6)
+        if out["crown_scale"] is not None and out["dominant_height"] is not None:
+            out["res"] = r
+            return out
+        s = _surfaces(catalog, box, {**opts, "res": r})
+        chm = s["chm"]
+        canopy = chm[np.isfinite(chm) & (chm >= params.min_height)]
+        if canopy.size < 25:
+            continue
+        cs = out["crown_scale"] if out["crown_scale"] is not None else \
+            crown_scale(chm, r, min_height=params.min_height)
+        if not np.isfinite(cs):
+            continue
+        out.update(res=r, crown_scale=cs)
+        if out["dominant_height"] is None:
+            out["dominant_height"] = float(np.percentile(canopy, 95))
+        return out
+    raise InputError(f"{catalog.files[0]}: no canopy above {params.min_height:g} m found to "
+                     "measure the crown scale; give -crown_scale and -tr")
+
+
+def tile_trees(tile: Tile, catalog: Catalog, params, opts: dict) -> dict:
+    """Trees of one tile: the tops in its core with their whole crowns, and its core CHM."""
+    import shapely
+
+    from .metrics import crown_polygons
+    from .trees import detect_trees
+
+    s = _surfaces(catalog, tile.box, opts)
+    spec = s["spec"]
+    r = detect_trees(s["chm"], spec, params, heights=s["heights"])
+    t = r["table"]
+    keep = tile.in_core(t["x"], t["y"])
+    idx = np.nonzero(keep)[0]
+    remap = np.zeros(len(t["x"]) + 1, np.int64)
+    remap[idx + 1] = np.arange(1, idx.size + 1)
+    labels = remap[r["labels"]]
+    polys = crown_polygons(labels, spec, idx.size)
+    cols = ("tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_cells")
+    out = {c: np.asarray(t[c])[idx] for c in cols}
+    out["wkb"] = shapely.to_wkb(np.asarray(polys, dtype=object)) if idx.size else []
+    # the core window of the CHM in the tile's grid
+    x0, y0, x1, y1 = tile.core
+    c0 = max(0, int(math.floor((x0 - spec.left) / spec.res + 1e-9)))
+    c1 = min(spec.width, int(math.ceil((x1 - spec.left) / spec.res - 1e-9)))
+    r0 = max(0, int(math.floor((spec.top - y1) / spec.res + 1e-9)))
+    r1 = min(spec.height, int(math.ceil((spec.top - y0) / spec.res - 1e-9)))
+    core = s["chm"][r0:r1, c0:c1]
+    out.update({"chm": core.astype(np.float32), "chm_left": spec.left + c0 * spec.res,
+                "chm_top": spec.top - r0 * spec.res, "res": spec.res,
+                "canopy_cells": int(np.isfinite(core).sum()), "points": s["points"],
+                "dropped": s["dropped"], "outlier_points": s["outlier_points"],
+                "tile": tile.index})
+    return out
+
+
+def _client(workers, scheduler):
+    from dask.distributed import Client, LocalCluster
+
+    if scheduler:
+        return Client(scheduler), None
+    import logging
+
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                           dashboard_address=None, silence_logs=logging.ERROR)
+    return Client(cluster), cluster
+
+
+def run_tiles(fn, tiles, args, *, workers=None, scheduler=None, progress=None):
+    """Run ``fn(tile, *args)`` for every tile and yield the results as they finish: in this
+    process (``workers=1``), on a local Dask cluster or on ``scheduler``. A cancel (or Ctrl-C)
+    cancels the remaining tasks."""
+    prog = as_progress(progress)
+    workers = int(workers or os.environ.get("LIDARTREES_WORKERS", 0) or os.cpu_count() or 1)
+    n = len(tiles)
+    if workers <= 1 and not scheduler:
+        for k, t in enumerate(tiles):
+            check_cancel(prog)
+            yield fn(t, *args)
+            prog.update((k + 1) / n, f"tile {k + 1}/{n}")
+        return
+    from dask.distributed import as_completed
+
+    client, cluster = _client(workers, scheduler)
+    futs = []
+    try:
+        futs = [client.submit(fn, t, *args, pure=False) for t in tiles]
+        for k, f in enumerate(as_completed(futs)):
+            check_cancel(prog)
+            yield f.result()
+            f.release()
+            prog.update((k + 1) / n, f"tile {k + 1}/{n}")
+    finally:
+        if futs:
+            client.cancel(futs)
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def plan(catalog: Catalog, params, opts: dict, tile_size=None, buffer=None):
+    """Area parameters and tiles: ``(params with crown scale and dominant height, opts with the
+    cell size, tiles, buffer)``."""
+    from dataclasses import replace
+
+    ap = area_parameters(catalog, opts.get("res"), params, opts)
+    params = replace(params, crown_scale=ap["crown_scale"], dominant_height=ap["dominant_height"])
+    opts = {**opts, "res": ap["res"]}
+    ts = float(tile_size) if tile_size else TILE_SIZE
+    if math.isfinite(ts):
+        ts = max(ap["res"], round(ts / ap["res"]) * ap["res"])  # tile edges on cell edges
+    buf = float(buffer) if buffer is not None else max(MIN_BUFFER, BUFFER_CROWNS * ap["crown_scale"])
+    if buf < 0:
+        raise InputError(f"-buffer must be >= 0 m, got {buffer}")
+    return params, opts, make_tiles(catalog.extent, ts, buf), buf
+
+
+class MosaicWriter:
+    """A tiled GeoTIFF over the whole area, written window by window as tiles finish."""
+
+    def __init__(self, tmp_path, spec, *, creation_options=None, tags=None, description=None):
+        import rasterio
+
+        from .io.raster import DEFAULT_CO, NODATA, rio_crs
+
+        co = dict(DEFAULT_CO)
+        co.update({k.upper(): v for k, v in (creation_options or {}).items()})
+        co.setdefault("BIGTIFF", "IF_SAFER")
+        if spec.width < 16 or spec.height < 16:
+            co.pop("TILED", None), co.pop("BLOCKXSIZE", None), co.pop("BLOCKYSIZE", None)
+        self.spec = spec
+        self.nodata = NODATA
+        self.ds = rasterio.open(tmp_path, "w", driver="GTiff", width=spec.width,
+                                height=spec.height, count=1, dtype="float32",
+                                crs=rio_crs(spec.crs), transform=spec.transform, nodata=NODATA,
+                                **co)
+        if tags:
+            import json
+
+            from . import __version__
+
+            t = {"LIDARTREES_VERSION": __version__}
+            t.update({str(k).upper(): v if isinstance(v, str) else json.dumps(v, default=str)
+                      for k, v in tags.items()})
+            self.ds.update_tags(**t)
+        if description:
+            self.ds.set_band_description(1, description)
+
+    def write(self, arr, left, top):
+        from rasterio.windows import Window
+
+        s = self.spec
+        c0 = int(round((left - s.left) / s.res))
+        r0 = int(round((s.top - top) / s.res))
+        a = np.asarray(arr, np.float32)
+        # clip to the mosaic
+        rr0, cc0 = max(r0, 0), max(c0, 0)
+        rr1, cc1 = min(r0 + a.shape[0], s.height), min(c0 + a.shape[1], s.width)
+        if rr1 <= rr0 or cc1 <= cc0:
+            return
+        a = a[rr0 - r0:rr1 - r0, cc0 - c0:cc1 - c0]
+        self.ds.write(np.where(np.isnan(a), self.nodata, a), 1,
+                      window=Window(cc0, rr0, cc1 - cc0, rr1 - rr0))
+
+    def close(self):
+        self.ds.close()
+
+
+def _options(kw: dict) -> dict:
+    return {"res": kw.get("res", "auto"), "dtm": kw.get("dtm", "auto"),
+            "chm": kw.get("chm", "pitfree"), "fill": kw.get("fill", "mean8"),
+            "outliers": kw.get("outliers", True), "drop_class": kw.get("drop_class", "7,18"),
+            "keep_class": kw.get("keep_class")}
+
+
+def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, workers=None,
+                scheduler=None, nln="", layer_options=None, overwrite=False, append=False,
+                chm_out=None, creation_options=None, a_srs=None, progress=None, read_kw=None,
+                **kw) -> dict:
+    """``lidartrees trees`` over many files or a large area, tile by tile (see module doc)."""
+    import geopandas as gpd
+    import pandas as pd
+    import shapely
+
+    from . import __version__
+    from .crs import crs_label
+    from .grid import GridSpec
+    from .io.output import atomic_output, check_output
+    from .io.vector import write_gpkg
+    from .trees import TreeParams
+
+    p = params or TreeParams()
+    if p.spacing is not None:
+        raise InputError("-spacing (plantation mode) works on one tile at a time for now: run "
+                         "trees on each stand's file without -tile_size")
+    if not (overwrite or append):
+        check_output(output, False)
+    if chm_out:
+        check_output(chm_out, overwrite, param="-chm_out")
+    prog = as_progress(progress)
+    catalog = Catalog.open(input, a_srs=a_srs, **(read_kw or {}))
+    opts = _options(kw)
+    prog.update(0.01, "area parameters")
+    p, opts, tiles, buf = plan(catalog, p, opts, tile_size, buffer)
+    res = opts["res"]
+    gspec = GridSpec.from_bounds(*catalog.extent, res, crs=catalog.crs)
+    cols = {c: [] for c in ("tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_cells")}
+    wkb, canopy, points, dropped, outliers = [], 0, 0, {}, 0
+    import contextlib
+
+    with contextlib.ExitStack() as stack:
+        mosaic = None
+        if chm_out:
+            tmp = stack.enter_context(atomic_output(chm_out, overwrite, param="-chm_out"))
+            mosaic = MosaicWriter(tmp, gspec, creation_options=creation_options,
+                                  description="canopy height (m)",
+                                  tags={"LIDARTREES_COMMAND": "trees", "LIDARTREES_INPUT": str(input)})
+            stack.callback(mosaic.close)
+        from .progress import SubProgress
+
+        for r in run_tiles(tile_trees, tiles, (catalog, p, opts), workers=workers,
+                           scheduler=scheduler, progress=SubProgress(prog, 0.02, 0.9)):
+            for c in cols:
+                cols[c].append(r[c])
+            wkb.extend(list(r["wkb"]))
+            canopy += r["canopy_cells"]
+            points += r["points"]
+            outliers += r["outlier_points"] or 0
+            for k, v in r["dropped"].items():
+                dropped[k] = dropped.get(k, 0) + v
+            if mosaic is not None:
+                mosaic.write(r["chm"], r["chm_left"], r["chm_top"])
+    table = {c: (np.concatenate(v) if v else np.empty(0)) for c, v in cols.items()}
+    order = np.argsort(table["tree_id"], kind="stable")
+    table = {c: v[order] for c, v in table.items()}
+    geoms = shapely.from_wkb(np.asarray(wkb, dtype=object)[order]) if len(wkb) else []
+    n = len(table["tree_id"])
+    attrs = pd.DataFrame({c: table[c] for c in cols})
+    attrs["tree_id"] = attrs["tree_id"].astype("int64")
+    attrs["n_cells"] = attrs["n_cells"].astype("int64")
+    attrs["method"] = p.method
+    crs = catalog.crs.to_wkt() if catalog.crs is not None else None
+    tops = gpd.GeoDataFrame(attrs.copy(), geometry=shapely.points(table["x"], table["y"]), crs=crs)
+    crowns = gpd.GeoDataFrame(attrs.copy(), geometry=geoms, crs=crs)
+    area_ha = canopy * res * res / 1e4
+    h = table["height"]
+    summary = pd.DataFrame([{
+        "trees": n, "area_ha": area_ha, "trees_per_ha": n / area_ha if area_ha else np.nan,
+        "mean_height": float(np.mean(h)) if n else np.nan,
+        "sd_height": float(np.std(h, ddof=1)) if n > 1 else np.nan,
+        "mean_crown_diameter": float(np.mean(table["crown_diameter"])) if n else np.nan,
+        "method": p.method, "smooth": p.smooth, "tops": p.tops_finder, "res": res,
+        "crown_scale": p.crown_scale, "dominant_height": p.dominant_height,
+        "tiles": len(tiles), "tile_size": tiles[0].core[2] - tiles[0].core[0] if tiles else np.nan,
+        "buffer": buf}])
+    meta = {"lidartrees_version": __version__, "input": str(input),
+            "files": [str(f) for f in catalog.files], "res": res, **opts, **p.as_dict(),
+            "tiles": len(tiles), "buffer": buf, "dropped_classes": dropped or None,
+            "outlier_points": outliers or None}
+    write_gpkg(output, {f"{nln}tree_tops": tops, f"{nln}crowns": crowns, f"{nln}summary": summary},
+               overwrite=overwrite, append=append, layer_options=layer_options, metadata=meta)
+    prog.update(1.0, "done")
+    return {"output": str(output), "trees": n, "crs": crs_label(catalog.crs), "files": len(catalog.files),
+            "points": points, "tiles": len(tiles), "buffer": round(buf, 2), "res": res,
+            "crown_scale": round(float(p.crown_scale), 3), "mean_height": round(float(np.mean(h)), 2) if n else None,
+            "mean_crown_diameter": round(float(np.mean(table["crown_diameter"])), 2) if n else None,
+            "trees_per_ha": round(n / area_ha, 1) if area_ha else None,
+            "dropped_classes": {str(k): v for k, v in sorted(dropped.items())} or None,
+            "outlier_points": outliers or None, "table": None, "tree_ids": table["tree_id"]}
+
+
+def chm_tile(tile: Tile, catalog: Catalog, opts: dict) -> dict:
+    """The core window of one tile's CHM (and DTM)."""
+    s = _surfaces(catalog, tile.box, opts)
+    spec = s["spec"]
+    x0, y0, x1, y1 = tile.core
+    c0 = max(0, int(math.floor((x0 - spec.left) / spec.res + 1e-9)))
+    c1 = min(spec.width, int(math.ceil((x1 - spec.left) / spec.res - 1e-9)))
+    r0 = max(0, int(math.floor((spec.top - y1) / spec.res + 1e-9)))
+    r1 = min(spec.height, int(math.ceil((spec.top - y0) / spec.res - 1e-9)))
+    return {"chm": s["chm"][r0:r1, c0:c1].astype(np.float32),
+            "dtm": s["dtm"][r0:r1, c0:c1].astype(np.float32),
+            "left": spec.left + c0 * spec.res, "top": spec.top - r0 * spec.res,
+            "points": s["points"], "dropped": s["dropped"], "outlier_points": s["outlier_points"]}
+
+
+def chm_tiled(input, output, *, tile_size=None, buffer=None, workers=None, scheduler=None,
+              dtm_out=None, overwrite=False, creation_options=None, a_srs=None, progress=None,
+              read_kw=None, **kw) -> dict:
+    """``lidartrees chm`` over many files: a CHM (and DTM) mosaic, tile by tile."""
+    import contextlib
+
+    from .chm import chm_resolution
+    from .crs import crs_label
+    from .grid import GridSpec, check_resolution
+    from .io.output import atomic_output, check_output
+    from .progress import SubProgress
+
+    check_output(output, overwrite)
+    if dtm_out:
+        check_output(dtm_out, overwrite, param="-dtm_out")
+    prog = as_progress(progress)
+    catalog = Catalog.open(input, a_srs=a_srs, **(read_kw or {}))
+    opts = _options(kw)
+    res = opts["res"]
+    res = chm_resolution(catalog.count, catalog.area) if str(res).lower() == "auto" else check_resolution(res)
+    opts["res"] = res
+    ts = float(tile_size) if tile_size else TILE_SIZE
+    ts = max(res, round(ts / res) * res)
+    buf = float(buffer) if buffer is not None else 2 * MIN_BUFFER
+    tiles = make_tiles(catalog.extent, ts, buf)
+    gspec = GridSpec.from_bounds(*catalog.extent, res, crs=catalog.crs)
+    tags = {"LIDARTREES_COMMAND": "chm", "LIDARTREES_INPUT": str(input),
+            "LIDARTREES_PARAMETERS": {**opts, "tiles": len(tiles), "buffer": buf}}
+    points, dropped, outliers = 0, {}, 0
+    with contextlib.ExitStack() as stack:
+        tmp = stack.enter_context(atomic_output(output, overwrite))
+        mos = MosaicWriter(tmp, gspec, creation_options=creation_options, tags=tags,
+                           description="canopy height (m)")
+        stack.callback(mos.close)
+        dmos = None
+        if dtm_out:
+            dtmp = stack.enter_context(atomic_output(dtm_out, overwrite, param="-dtm_out"))
+            dmos = MosaicWriter(dtmp, gspec, creation_options=creation_options, tags=tags,
+                                description="terrain height (m)")
+            stack.callback(dmos.close)
+        for r in run_tiles(chm_tile, tiles, (catalog, opts), workers=workers,
+                           scheduler=scheduler, progress=SubProgress(prog, 0.02, 0.98)):
+            mos.write(r["chm"], r["left"], r["top"])
+            if dmos is not None:
+                dmos.write(r["dtm"], r["left"], r["top"])
+            points += r["points"]
+            outliers += r["outlier_points"] or 0
+            for k, v in r["dropped"].items():
+                dropped[k] = dropped.get(k, 0) + v
+    prog.update(1.0, "done")
+    return {"output": str(output), "files": len(catalog.files), "points": points, "res": res,
+            "shape": gspec.shape, "tiles": len(tiles), "crs": crs_label(catalog.crs),
+            "dropped_classes": {str(k): v for k, v in sorted(dropped.items())} or None,
+            "outlier_points": outliers or None}
