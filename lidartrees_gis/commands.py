@@ -98,6 +98,18 @@ DROP_CLASS = Param("drop_class", "str", "Leave out points of these LAS classes (
 KEEP_CLASS = Param("keep_class", "str", "Use only points of these LAS classes (comma list, e.g. "
                    "1,2,3,4,5)", flag="-keep_class", advanced=True)
 CLASSES = (DROP_CLASS, KEEP_CLASS)
+TILES = (
+    Param("tile_size", "str", "Process in square tiles of this side (m), each with a buffer; "
+          "default 250 when INPUT names several files (a folder, a glob, a .txt list or a .vpc) "
+          "or holds more than 20 M points; none = one tile", flag="-tile_size", advanced=True,
+          unit="m"),
+    Param("buffer", "float", "Buffer around each tile (default: 8 crown scales, at least 20 m)",
+          flag="-buffer", advanced=True, unit="m"),
+    Param("workers", "float", "Worker processes of the local Dask cluster (default: all cores; "
+          "1 = in this process)", flag="-workers", advanced=True),
+    Param("scheduler", "str", "Address of an existing Dask scheduler to run the tiles on, e.g. "
+          "tcp://10.0.0.5:8786", flag="--scheduler", advanced=True),
+)
 DTM_AUTO = Param("dtm", "str", "DTM: auto = class-2 ground points if the file has them, else "
                  "lowest:5; ground = class-2 points interpolated (TIN); lowest:R = lowest point "
                  "per R m cell, interpolated; kp or kp:G:W = Kraus & Pfeifer ground filter "
@@ -125,6 +137,12 @@ def _read_kw(kw):
     return {k: kw[k] for k in keys if kw.get(k) is not None}
 
 
+def _co(kw):
+    from .io.raster import parse_kv
+
+    return parse_kv(kw.get("creation_options"), "-co") or None
+
+
 def _classes(kw):
     return {"drop_class": kw.get("drop_class") if kw.get("drop_class") is not None else "7,18",
             "keep_class": kw.get("keep_class") or None}
@@ -136,7 +154,7 @@ def _grid(input, output, **kw):
     return pipeline.grid_file(input, output, res=kw.get("res") or "auto",
                               stat=kw.get("stat") or "max", fill=kw.get("fill") or "none",
                               **_classes(kw),
-                              creation_options=kw.get("creation_options"),
+                              creation_options=_co(kw),
                               overwrite=bool(kw.get("overwrite")), progress=kw.get("progress"),
                               **_read_kw(kw))
 
@@ -144,11 +162,28 @@ def _grid(input, output, **kw):
 def _chm(input, output, **kw):
     from . import pipeline
 
+    ts, tiled = _tiling(input, kw)
+    if tiled:
+        from .tiled import chm_tiled
+
+        if kw.get("dsm_out"):
+            from .errors import InputError
+
+            raise InputError("-dsm_out is not written by tiled runs yet; use -tile_size none")
+        return chm_tiled(input, output, tile_size=ts, **_tile_kw(kw), res=kw.get("res") or "auto",
+                         dtm=kw.get("dtm") or "auto", chm=kw.get("chm") or "pitfree",
+                         outliers=not kw.get("keep_outliers"), **_classes(kw),
+                         fill=kw.get("fill") or "mean8", dtm_out=kw.get("dtm_out"),
+                         creation_options=_co(kw),
+                         overwrite=bool(kw.get("overwrite")), a_srs=kw.get("a_srs"),
+                         progress=kw.get("progress"),
+                         read_kw={k: v for k, v in _read_kw(kw).items() if k != "a_srs"})
+
     return pipeline.chm_file(input, output, res=kw.get("res") or "auto",
                              dtm=kw.get("dtm") or "auto", chm=kw.get("chm") or "pitfree",
                              outliers=not kw.get("keep_outliers"), **_classes(kw),
                              fill=kw.get("fill") or "mean8", dsm_out=kw.get("dsm_out"),
-                             dtm_out=kw.get("dtm_out"), creation_options=kw.get("creation_options"),
+                             dtm_out=kw.get("dtm_out"), creation_options=_co(kw),
                              overwrite=bool(kw.get("overwrite")), progress=kw.get("progress"),
                              **_read_kw(kw))
 
@@ -175,9 +210,80 @@ def _tree_params(kw):
     return TreeParams(**vals)
 
 
+#: a single file with more points than this is processed in tiles by default
+TILED_ABOVE = 20_000_000
+
+
+def _tiling(input, kw):
+    """``(tile_size or None, use tiles?)`` from -tile_size and the input."""
+    from pathlib import Path
+
+    from .catalog import is_catalog_input
+    from .errors import InputError
+
+    ts = kw.get("tile_size")
+    if ts is not None and str(ts).strip().lower() in ("none", "inf", "0"):
+        return float("inf"), True
+    if ts not in (None, ""):
+        try:
+            v = float(ts)
+        except ValueError:
+            raise InputError(f"-tile_size: expected metres or none, got {ts!r}") from None
+        if not v > 0:
+            raise InputError(f"-tile_size must be > 0 m, got {ts!r}")
+        return v, True
+    if is_catalog_input(input):
+        return None, True
+    p = Path(str(input))
+    if p.suffix.lower() in (".las", ".laz") and p.exists():
+        try:
+            import laspy
+
+            with laspy.open(p) as r:
+                return None, int(r.header.point_count) > TILED_ABOVE
+        except Exception:  # noqa: BLE001 - the reader reports a broken file properly later
+            return None, False
+    return None, False
+
+
+def _tile_kw(kw):
+    from .errors import InputError
+
+    out = {"buffer": None, "workers": None, "scheduler": kw.get("scheduler") or None}
+    for k in ("buffer", "workers"):
+        if kw.get(k) not in (None, ""):
+            try:
+                out[k] = float(kw[k]) if k == "buffer" else int(float(kw[k]))
+            except ValueError:
+                raise InputError(f"-{k}: expected a number, got {kw[k]!r}") from None
+    if out["workers"] is not None and out["workers"] < 1:
+        raise InputError(f"-workers must be >= 1, got {kw['workers']!r}")
+    return out
+
+
 def _trees(input, output, **kw):
     from . import pipeline
     from .io.raster import parse_kv
+
+    ts, tiled = _tiling(input, kw)
+    if tiled:
+        from .tiled import trees_tiled
+
+        if kw.get("png") or kw.get("csv"):
+            from .errors import InputError
+
+            raise InputError("-png and -csv are made for one tile; drop them for a tiled run "
+                             "(or give -tile_size none)")
+        r = trees_tiled(
+            input, output, params=_tree_params(kw), tile_size=ts, **_tile_kw(kw),
+            res=kw.get("res") or "auto", dtm=kw.get("dtm") or "auto",
+            chm=kw.get("chm") or "pitfree", outliers=not kw.get("keep_outliers"), **_classes(kw),
+            fill=kw.get("fill") or "mean8", nln=kw.get("nln") or "",
+            layer_options=parse_kv(kw.get("layer_options"), "-lco"),
+            overwrite=bool(kw.get("overwrite")), append=bool(kw.get("append")),
+            chm_out=kw.get("chm_out"), a_srs=kw.get("a_srs"), progress=kw.get("progress"),
+            read_kw={k: v for k, v in _read_kw(kw).items() if k != "a_srs"})
+        return {k: v for k, v in r.items() if k not in ("tree_ids", "table")}
 
     r = pipeline.trees_file(
         input, output, res=kw.get("res") or "auto", params=_tree_params(kw),
@@ -226,7 +332,7 @@ def _ground(input, output, **kw):
 
     return pipeline.ground_file(input, output, dtm_out=kw.get("dtm_out"), res=kw.get("res") or "auto",
                                 params=_kp_params(kw), overwrite=bool(kw.get("overwrite")),
-                                creation_options=kw.get("creation_options"),
+                                creation_options=_co(kw),
                                 progress=kw.get("progress"), **_read_kw(kw))
 
 
@@ -303,7 +409,7 @@ COMMANDS = {
     "chm": Command(
         "chm", "Rasters", "Canopy height model CHM = DSM (highest point per cell) - DTM",
         (INPUT, Param("output", "output", "Output CHM GeoTIFF"), CHM_RES, DTM_AUTO, CHM_KIND,
-         FILL, *CLASSES, KEEP_OUTLIERS,
+         FILL, *CLASSES, KEEP_OUTLIERS, *TILES,
          Param("dsm_out", "output", "Also write the DSM here", flag="-dsm_out", advanced=True),
          Param("dtm_out", "output", "Also write the DTM here", flag="-dtm_out", advanced=True),
          *READ, CO, OVERWRITE), _chm, outputs=("output", "dsm_out", "dtm_out")),
@@ -356,7 +462,7 @@ COMMANDS = {
                "points if any, else lowest:5", flag="-dtm", default="auto", advanced=True),
          Param("chm", "choice", CHM_KIND.help, flag="-chm", choices=CHM_KIND.choices,
                default="pitfree", advanced=True),
-         *CLASSES, KEEP_OUTLIERS,
+         *CLASSES, KEEP_OUTLIERS, *TILES,
          Param("fill", "choice", FILL.help, flag="-fill", choices=("mean8", "none"),
                default="mean8", advanced=True),
          Param("nln", "str", "Prefix for the layer names (tree_tops, crowns, summary)",

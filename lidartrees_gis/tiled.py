@@ -391,11 +391,20 @@ def chm_tiled(input, output, *, tile_size=None, buffer=None, workers=None, sched
     catalog = Catalog.open(input, a_srs=a_srs, **(read_kw or {}))
     opts = _options(kw)
     res = opts["res"]
-    res = chm_resolution(catalog.count, catalog.area) if str(res).lower() == "auto" else check_resolution(res)
+    if str(res).lower() == "auto":  # as trees_tiled: the density in the middle of the area
+        x0, y0, x1, y1 = catalog.extent
+        cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+        dens = _window_density(catalog, (max(cx - 75, x0), max(cy - 75, y0), min(cx + 75, x1),
+                                         min(cy + 75, y1)), opts)
+        res = chm_resolution(int(round(dens * 1e6)), 1e6) if np.isfinite(dens) else \
+            chm_resolution(catalog.count, catalog.area)
+    else:
+        res = check_resolution(res)
     opts["res"] = res
     ts = float(tile_size) if tile_size else TILE_SIZE
-    ts = max(res, round(ts / res) * res)
-    buf = float(buffer) if buffer is not None else 2 * MIN_BUFFER
+    if math.isfinite(ts):
+        ts = max(res, round(ts / res) * res)
+    buf = float(buffer) if buffer is not None else MIN_BUFFER
     tiles = make_tiles(catalog.extent, ts, buf)
     gspec = GridSpec.from_bounds(*catalog.extent, res, crs=catalog.crs)
     tags = {"LIDARTREES_COMMAND": "chm", "LIDARTREES_INPUT": str(input),

@@ -1,0 +1,135 @@
+"""Issue 10: many inputs, tiles with buffers, seamless trees whatever the tiling, Dask."""
+import json
+
+import geopandas as gpd
+import numpy as np
+import pyogrio
+import pytest
+import rasterio
+from pyproj import CRS
+
+from lidartrees_gis.catalog import Catalog, expand_inputs, make_tiles
+from lidartrees_gis.cli import main
+from lidartrees_gis.io.lasout import write_points
+from lidartrees_gis.tiled import trees_tiled
+
+
+@pytest.fixture(scope="module")
+def split_stand(tmp_path_factory, stand):
+    """The synthetic stand written as three LAS files (west, middle, east strips)."""
+    pts, truth = stand
+    d = tmp_path_factory.mktemp("split")
+    x0 = pts.x.min()
+    edges = [x0 - 1, x0 + 20.3, x0 + 41.7, pts.x.max() + 1]
+    files = []
+    for k in range(3):
+        m = (pts.x >= edges[k]) & (pts.x < edges[k + 1])
+        f = d / f"part{k}.laz"
+        write_points(f, pts.x[m], pts.y[m], pts.z[m], crs=CRS.from_epsg(29194),
+                     classification=pts.classification[m])
+        files.append(f)
+    (d / "notes.gpkg").write_bytes(b"not a point file")
+    return d, files, truth
+
+
+def test_inputs_from_folder_glob_list_and_vpc(split_stand, tmp_path):
+    d, files, _ = split_stand
+    assert expand_inputs(d) == files  # the .gpkg beside them is not a point file
+    assert expand_inputs(str(d / "part*.laz")) == files
+    lst = tmp_path / "list.txt"
+    lst.write_text("\n".join(str(f) for f in files[::-1]) + "\n")
+    assert expand_inputs(lst) == files[::-1]
+    vpc = tmp_path / "all.vpc"
+    vpc.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "assets": {"data": {"href": str(f)}}} for f in files]}))
+    assert expand_inputs(vpc) == files
+    cat = Catalog.open(d)
+    assert cat.crs.to_epsg() == 29194 and len(cat.files) == 3
+    with pytest.raises(OSError, match="matches no file"):
+        expand_inputs(str(d / "nothing*.laz"))
+
+
+def test_tiles_are_aligned_and_cores_partition_the_area():
+    tiles = make_tiles((1010.0, 2020.0, 1290.0, 2230.0), 100.0, 15.0)
+    assert {t.index for t in tiles} == {(i, j) for i in (10, 11, 12) for j in (20, 21, 22)}
+    rng = np.random.default_rng(0)
+    x = np.r_[rng.uniform(1010, 1290, 5000), 1100.0, 1290.0]
+    y = np.r_[rng.uniform(2020, 2230, 5000), 2100.0, 2230.0]
+    owners = sum(t.in_core(x, y).astype(int) for t in tiles)
+    assert (owners == 1).all()  # every point, on an edge or on the far corner, in one core
+    t = [t for t in tiles if t.index == (11, 21)][0]
+    assert t.core == (1100.0, 2100.0, 1200.0, 2200.0) and t.box == (1085.0, 2085.0, 1215.0, 2215.0)
+
+
+def test_tiled_equals_untiled_on_a_stand_split_in_files(split_stand, tmp_path):
+    d, files, truth = split_stand
+    a = trees_tiled(d, tmp_path / "a.gpkg", tile_size=25, workers=1)
+    b = trees_tiled(d, tmp_path / "b.gpkg", tile_size=float("inf"), workers=1)
+    assert a["tiles"] > 4 and b["tiles"] == 1
+    assert a["trees"] == b["trees"] and set(a["tree_ids"]) == set(b["tree_ids"])
+    ca = gpd.read_file(tmp_path / "a.gpkg", layer="crowns").set_index("tree_id").sort_index()
+    cb = gpd.read_file(tmp_path / "b.gpkg", layer="crowns").set_index("tree_id").sort_index()
+    # no crown is cut at a tile edge: every crown is the same polygon in both runs
+    np.testing.assert_allclose(ca.crown_area, cb.crown_area, rtol=1e-12)
+    assert ca.geometry.geom_equals(cb.geometry).all()
+    tops = gpd.read_file(tmp_path / "a.gpkg", layer="tree_tops").set_index("tree_id")
+    assert all(ca.geometry[i].contains(tops.geometry[i]) for i in tops.index)
+    assert tops.crs.to_epsg() == 29194 and tops.index.is_unique
+    # and the trees are the stand's (the files' seams do not split or double them)
+    from lidartrees_gis.evaluate import evaluate_trees
+
+    e = evaluate_trees(tops.x, tops.y, tops.height, truth["x"], truth["y"], truth["height"])
+    assert e["all"]["f_score"] >= 0.97
+
+
+def test_dask_cluster_gives_the_same_trees(split_stand, tmp_path):
+    pytest.importorskip("dask.distributed")
+    d, _, _ = split_stand
+    one = trees_tiled(d, tmp_path / "one.gpkg", tile_size=30, workers=1)
+    two = trees_tiled(d, tmp_path / "two.gpkg", tile_size=30, workers=2)
+    assert set(one["tree_ids"]) == set(two["tree_ids"]) and one["tiles"] == two["tiles"] > 1
+
+
+def test_chm_mosaic_is_seamless(split_stand, tmp_path):
+    d, _, _ = split_stand
+    assert main(["chm", str(d), str(tmp_path / "m.tif"), "-tile_size", "20", "-workers", "1",
+                 "-dtm_out", str(tmp_path / "d.tif"), "-q"]) == 0
+    assert main(["chm", str(d), str(tmp_path / "one.tif"), "-tile_size", "none", "-workers", "1",
+                 "-q"]) == 0
+    with rasterio.open(tmp_path / "m.tif") as a, rasterio.open(tmp_path / "one.tif") as b:
+        assert a.crs.to_epsg() == 29194 and a.transform == b.transform and a.shape == b.shape
+        x, y = a.read(1, masked=True), b.read(1, masked=True)
+        assert (x.mask == y.mask).all()
+        np.testing.assert_allclose(x.compressed(), y.compressed(), atol=1e-4)
+        assert a.profile["tiled"]
+    assert (tmp_path / "d.tif").exists()
+
+
+def test_cli_runs_a_folder_in_tiles(split_stand, tmp_path):
+    d, _, _ = split_stand
+    out = tmp_path / "t.gpkg"
+    rj = tmp_path / "r.json"
+    assert main(["trees", str(d), str(out), "-workers", "1", "-q", "--result-json", str(rj)]) == 0
+    r = json.loads(rj.read_text())
+    assert r["files"] == 3 and r["tiles"] >= 1 and r["trees"] > 560
+    summ = pyogrio.read_dataframe(out, layer="summary")
+    assert int(summ.trees[0]) == r["trees"] and summ.buffer[0] >= 20
+    assert main(["trees", str(d), str(tmp_path / "p.gpkg"), "-png", str(tmp_path / "q.png"),
+                 "-q"]) == 1
+    assert not (tmp_path / "p.gpkg").exists()
+
+
+@pytest.mark.realdata
+def test_bcts_tiled_equals_untiled(data, tmp_path):
+    """Issue 10 acceptance: two lasR_bcts tiles as files vs one tile (count and ids), no crown
+    cut; benchmarks/bench_chain.py runs all four."""
+    f1, f2 = data("lasR_bcts/bcts_1.laz"), data("lasR_bcts/bcts_2.laz")
+    lst = tmp_path / "two.txt"
+    lst.write_text(f"{f1}\n{f2}\n")
+    a = trees_tiled(lst, tmp_path / "a.gpkg", tile_size=100, workers=1)
+    b = trees_tiled(lst, tmp_path / "b.gpkg", tile_size=float("inf"), workers=1)
+    assert a["tiles"] >= 8 and a["trees"] == b["trees"] > 2000
+    assert set(a["tree_ids"]) == set(b["tree_ids"])
+    ca = pyogrio.read_dataframe(tmp_path / "a.gpkg", layer="crowns").set_index("tree_id").sort_index()
+    cb = pyogrio.read_dataframe(tmp_path / "b.gpkg", layer="crowns").set_index("tree_id").sort_index()
+    np.testing.assert_allclose(ca.crown_area, cb.crown_area, rtol=1e-12)
