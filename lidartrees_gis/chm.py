@@ -79,6 +79,20 @@ def _circumradius(px, py, tri):
         return np.where(area2 > 0, a * b * c / (2.0 * area2), np.inf)
 
 
+def _morton_order(x, y, cell: float = 1.0):
+    """Indices that sort points along a Morton curve of ``cell``-metre cells."""
+    def spread(v):
+        v = v & np.uint64(0xFFFF)
+        v = (v | (v << np.uint64(8))) & np.uint64(0x00FF00FF)
+        v = (v | (v << np.uint64(4))) & np.uint64(0x0F0F0F0F)
+        v = (v | (v << np.uint64(2))) & np.uint64(0x33333333)
+        return (v | (v << np.uint64(1))) & np.uint64(0x55555555)
+
+    ix = np.clip((np.asarray(x) - np.min(x)) / cell, 0, 65535).astype(np.uint64)
+    iy = np.clip((np.asarray(y) - np.min(y)) / cell, 0, 65535).astype(np.uint64)
+    return np.argsort(spread(ix) | (spread(iy) << np.uint64(1)), kind="stable")
+
+
 def triangulate(x, y, z):
     """2-D Delaunay triangulation: ``(px, py, pz, triangles)``.
 
@@ -90,9 +104,12 @@ def triangulate(x, y, z):
     except ImportError:  # pragma: no cover - depends on the environment
         startinpy = None
     if startinpy is not None:
+        # insert along a Morton (z-order) curve of 1 m cells: incremental insertion walks from
+        # the last point, and points in random order (some XYZ files) made it 70x slower
+        order = _morton_order(x, y)
         dt = startinpy.DT()
         dt.duplicates_handling = "Highest"
-        dt.insert(np.column_stack([x, y, z]))
+        dt.insert(np.column_stack([x[order], y[order], z[order]]))
         p = np.asarray(dt.points)
         tri = np.asarray(dt.triangles, dtype=np.int64)
         return p[:, 0], p[:, 1], p[:, 2], tri  # vertex 0 is startin's infinite vertex, unused

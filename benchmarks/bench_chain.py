@@ -1,0 +1,127 @@
+"""The whole chain on many tiles (issue 10): LAZ files -> pit-free CHM -> tops -> crowns -> crown
+polygons in a GeoPackage, with the default options, at 2, 4, 8 and 16 M points (copies of
+lidR's Megaplot laid side by side as separate files, as the issue measured), on one worker (in
+process) and on a local Dask cluster of two; wall time and peak RSS of the largest process.
+Also tiled = untiled on the four lasR_bcts tiles. When R with lasR/lidR is on the PATH their
+chains run in the same run (skipped otherwise: R is not installable on this machine).
+
+Usage: python benchmarks/bench_chain.py [--sizes 2,4,8,16] [--out benchmarks/results/chain.json]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+DATA = ROOT.parent / "shared" / "data"
+
+#: the issue's measurements on the same machine kind (s at 2/4/8/16.3 M points)
+REPORTED = {"ours_before": [33, 52, 130, 241], "lasR": [8.5, 12.5, 30, 55],
+            "lidR": [20, 28, 62, 117], "peak_rss_before_gb_16M": 5.4, "lasR_peak_rss_gb": 1.5}
+
+
+def make_copies(n_points: float, out: Path) -> list:
+    """Copies of Megaplot.laz (81,590 points, 227 x 234 m) on a 230 m grid until n_points."""
+    import laspy
+
+    src = laspy.read(DATA / "lidR_extdata" / "Megaplot.laz")
+    k = int(math.ceil(n_points / len(src.points)))
+    side = int(math.ceil(math.sqrt(k)))
+    files = []
+    out.mkdir(parents=True, exist_ok=True)
+    for i in range(k):
+        f = out / f"mp_{i:04d}.laz"
+        files.append(f)
+        if f.exists():
+            continue
+        las = laspy.read(DATA / "lidR_extdata" / "Megaplot.laz")
+        sx, sy = las.header.scales[0], las.header.scales[1]
+        las.X = las.X + int(round(230.0 * (i % side) / sx))
+        las.Y = las.Y + int(round(230.0 * (i // side) / sy))
+        las.write(f)
+    return files
+
+
+def run_chain(folder: Path, out: Path, workers: int) -> dict:
+    """One chain in a fresh process: wall time, trees, peak RSS of the largest process."""
+    code = ("import sys, json, time; sys.path.insert(0, %r)\n"
+            "from lidartrees_gis.tiled import trees_tiled\n"
+            "t = time.perf_counter()\n"
+            "r = trees_tiled(%r, %r, workers=%d, overwrite=True)\n"
+            "import resource\n"
+            "s = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024\n"
+            "c = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024\n"
+            "print(json.dumps({'seconds': time.perf_counter() - t, 'trees': r['trees'], "
+            "'tiles': r['tiles'], 'points': r['points'], 'peak_rss_mb_main': s, "
+            "'peak_rss_mb_worker': c}))\n") % (str(ROOT), str(folder), str(out), workers)
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    if p.returncode != 0:
+        return {"error": p.stderr.strip().splitlines()[-1] if p.stderr else f"exit {p.returncode}"}
+    r = json.loads(p.stdout.strip().splitlines()[-1])
+    r["peak_rss_mb"] = round(max(r.pop("peak_rss_mb_main"), r.pop("peak_rss_mb_worker")), 1)
+    r["seconds"] = round(r["seconds"], 2)
+    return r
+
+
+def bcts_equality(tmp: Path) -> dict:
+    from lidartrees_gis.tiled import trees_tiled
+
+    files = sorted((DATA / "lasR_bcts").glob("bcts_*.laz"))
+    if len(files) < 4:
+        return {}
+    lst = tmp / "bcts.txt"
+    lst.write_text("\n".join(str(f) for f in files))
+    t = time.perf_counter()
+    a = trees_tiled(lst, tmp / "a.gpkg", workers=2, overwrite=True)
+    ta = time.perf_counter() - t
+    t = time.perf_counter()
+    b = trees_tiled(lst, tmp / "b.gpkg", tile_size=float("inf"), workers=1, overwrite=True)
+    tb = time.perf_counter() - t
+    return {"tiled": {"trees": a["trees"], "tiles": a["tiles"], "seconds": round(ta, 1)},
+            "untiled": {"trees": b["trees"], "tiles": b["tiles"], "seconds": round(tb, 1)},
+            "same_count": a["trees"] == b["trees"],
+            "same_ids": set(a["tree_ids"].tolist()) == set(b["tree_ids"].tolist())}
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--sizes", default="2,4,8,16")
+    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "chain.json"))
+    a = ap.parse_args()
+    sizes = [float(s) for s in a.sizes.split(",")]
+    res = {"reported_in_issue": REPORTED, "R": shutil.which("Rscript") or "not found: lasR/lidR skipped",
+           "chain": {}}
+    with tempfile.TemporaryDirectory() as d:
+        tmp = Path(d)
+        for m in sizes:
+            folder = tmp / f"mp_{m:g}M"
+            files = make_copies(m * 1e6, folder)
+            row = {"files": len(files)}
+            for w in (1, 2):
+                print(f"{m:g} M points, {w} worker(s)", file=sys.stderr, flush=True)
+                row[f"workers_{w}"] = run_chain(folder, tmp / "out.gpkg", w)
+            r1, r2 = row["workers_1"], row["workers_2"]
+            if "seconds" in r1 and "seconds" in r2:
+                row["two_workers_over_one"] = round(r2["seconds"] / r1["seconds"], 3)
+            res["chain"][f"{m:g}M"] = row
+            print(json.dumps(row), file=sys.stderr, flush=True)
+            shutil.rmtree(folder)
+        print("bcts tiled vs untiled", file=sys.stderr, flush=True)
+        res["bcts_tiled_vs_untiled"] = bcts_equality(tmp)
+    Path(a.out).parent.mkdir(parents=True, exist_ok=True)
+    Path(a.out).write_text(json.dumps(res, indent=2))
+    print(json.dumps(res, indent=2))
+
+
+if __name__ == "__main__":
+    main()
