@@ -64,7 +64,14 @@ def _print_result(name, res, quiet, as_json):
     if as_json:
         print(json.dumps(res, indent=2, default=str))
         return
-    if quiet or not isinstance(res, dict):
+    if not isinstance(res, dict):
+        return
+    if name == "info":  # the result itself: printed even with -q
+        for k, v in res.items():
+            if k != "crs_wkt":
+                print(f"{k}: {v}")
+        return
+    if quiet:
         return
     if name == "info":
         for k, v in res.items():

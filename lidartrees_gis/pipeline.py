@@ -73,11 +73,30 @@ def resolve_resolution(src: PointSource, res, progress=None, *, rule: str = "den
     return check_resolution(res)
 
 
+#: largest grid (cells) made in memory; larger areas go through tiles (about 30 bytes a cell)
+MAX_CELLS = 200_000_000
+
+
 def grid_spec_for(src: PointSource, res: float, progress=None) -> GridSpec:
-    """The aligned grid that holds every point of ``src``."""
+    """The aligned grid that holds every point of ``src``: refused when its CRS is geographic
+    (cells must be metres) or when it would exceed :data:`MAX_CELLS`."""
+    from .errors import CRSError
+
+    crs = src.crs
+    if crs is not None and getattr(crs, "is_geographic", False):
+        raise CRSError(f"{src.path}: the points are in a geographic CRS ({crs_label(crs)}, "
+                       "degrees); grids need metres: give -t_srs with a projected CRS, e.g. "
+                       "-t_srs EPSG:31984 (SIRGAS 2000 / UTM 24S)")
     b = src.header_bounds()
     if b is None:
         b = src.scan(progress).bounds
+    w, h = (b[2] - b[0]) / res, (b[3] - b[1]) / res
+    if w * h > MAX_CELLS:
+        raise InputError(
+            f"{src.path}: a {res:g} m grid over {b[2] - b[0]:.0f} x {b[3] - b[1]:.0f} m would hold "
+            f"{w * h:.3g} cells (limit {MAX_CELLS:.0e}); check -tr, or the extent (a wrong digit "
+            f"in a coordinate, or points far apart: x {b[0]:.2f}..{b[2]:.2f}, y {b[1]:.2f}.."
+            f"{b[3]:.2f}); large areas are processed in tiles with -tile_size")
     return GridSpec.from_bounds(*b, res, crs=src.crs)
 
 
@@ -334,9 +353,10 @@ def grid_file(input, output, *, res="auto", stat="max", fill="none", a_srs=None,
     ``drop_class`` (noise, 7 and 18, by default) are left out. Returns a dict with the grid
     spec, point count and the output path.
     """
-    from .io.output import check_output
+    from .io.output import check_not_input, check_output
 
     check_output(output, overwrite)
+    check_not_input(output, input)
     src = open_filtered(input, a_srs=a_srs, t_srs=t_srs, drop_class=drop_class,
                         keep_class=keep_class, **read_kw)
     prog = as_progress(progress)
@@ -378,11 +398,12 @@ def chm_file(input, output, *, res="auto", dtm="auto", chm="pitfree", fill="mean
     else lowest:5), pit-free CHM (Khosravipour et al. 2014), noise classes 7 and 18 dropped
     and isolated returns far above the canopy removed (see :func:`compute_surfaces`).
     """
-    from .io.output import check_output
+    from .io.output import check_not_input, check_output
 
     for p, name in ((output, "OUTPUT"), (dsm_out, "-dsm_out"), (dtm_out, "-dtm_out")):
         if p is not None:
             check_output(p, overwrite, param=name)
+            check_not_input(p, input, param=name)
     src = open_filtered(input, a_srs=a_srs, t_srs=t_srs, drop_class=drop_class,
                         keep_class=keep_class, **read_kw)
     prog = as_progress(progress)
@@ -552,12 +573,16 @@ def trees_file(input, output, *, res="auto", params=None, dtm="auto", chm="pitfr
     from .io.vector import write_gpkg
     from .trees import TreeParams, detect_trees
 
+    from .io.output import check_not_input
+
     p = params or TreeParams()
     if not (overwrite or append):
         check_output(output, False)
+    check_not_input(output, input)
     for extra, name in ((png, "-png"), (csv, "-csv"), (chm_out, "-chm_out")):
         if extra:
             check_output(extra, overwrite, param=name)
+            check_not_input(extra, input, param=name)
     prog = as_progress(progress)
     arr, spec, source, built = load_chm(input, res=res, dtm=dtm, chm=chm, fill=fill,
                                         outliers=outliers, drop_class=drop_class,

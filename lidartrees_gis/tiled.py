@@ -31,14 +31,23 @@ BUFFER_CROWNS = 8.0
 MIN_BUFFER = 20.0
 
 
-def _surfaces(catalog: Catalog, box, opts: dict) -> dict:
+def _surfaces(catalog: Catalog, box, opts: dict):
+    """Surfaces of the points in ``box``; None when the box holds no point (a gap between
+    files, a corner of the area)."""
     from .pipeline import compute_surfaces, parse_classes
 
     src = TileSource(catalog, box)
+    if not src.files:
+        return None
     src.set_class_filter(drop=parse_classes(opts["drop_class"]) or (),
                          keep=parse_classes(opts["keep_class"], "-keep_class"))
-    return compute_surfaces(src, opts["res"], dtm=opts["dtm"], fill=opts["fill"],
-                            chm=opts["chm"], outliers=opts["outliers"])
+    try:
+        return compute_surfaces(src, opts["res"], dtm=opts["dtm"], fill=opts["fill"],
+                                chm=opts["chm"], outliers=opts["outliers"])
+    except InputError as exc:
+        if "no points" in str(exc):
+            return None
+        raise
 
 
 def _window_density(catalog: Catalog, box, opts: dict) -> float:
@@ -91,6 +100,8 @@ def area_parameters(catalog: Catalog, res, params, opts: dict, *, window: float 
             out["res"] = r
             return out
         s = _surfaces(catalog, box, {**opts, "res": r})
+        if s is None:
+            continue
         chm = s["chm"]
         canopy = chm[np.isfinite(chm) & (chm >= params.min_height)]
         if canopy.size < 25:
@@ -115,6 +126,13 @@ def tile_trees(tile: Tile, catalog: Catalog, params, opts: dict) -> dict:
     from .trees import detect_trees
 
     s = _surfaces(catalog, tile.box, opts)
+    if s is None:
+        cols = ("tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_cells")
+        return {**{c: np.empty(0, np.int64 if c in ("tree_id", "n_cells") else np.float64)
+                   for c in cols}, "wkb": [], "chm": np.empty((0, 0), np.float32),
+                "chm_left": tile.core[0], "chm_top": tile.core[3], "res": opts["res"],
+                "canopy_cells": 0, "points": 0, "dropped": {}, "outlier_points": 0,
+                "tile": tile.index}
     spec = s["spec"]
     r = detect_trees(s["chm"], spec, params, heights=s["heights"])
     t = r["table"]
@@ -349,7 +367,7 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
                overwrite=overwrite, append=append, layer_options=layer_options, metadata=meta)
     prog.update(1.0, "done")
     return {"output": str(output), "trees": n, "crs": crs_label(catalog.crs), "files": len(catalog.files),
-            "points": points, "tiles": len(tiles), "buffer": round(buf, 2), "res": res,
+            "points": catalog.count, "points_read": points, "tiles": len(tiles), "buffer": round(buf, 2), "res": res,
             "crown_scale": round(float(p.crown_scale), 3), "mean_height": round(float(np.mean(h)), 2) if n else None,
             "mean_crown_diameter": round(float(np.mean(table["crown_diameter"])), 2) if n else None,
             "trees_per_ha": round(n / area_ha, 1) if area_ha else None,
@@ -360,6 +378,10 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
 def chm_tile(tile: Tile, catalog: Catalog, opts: dict) -> dict:
     """The core window of one tile's CHM (and DTM)."""
     s = _surfaces(catalog, tile.box, opts)
+    if s is None:
+        e = np.empty((0, 0), np.float32)
+        return {"chm": e, "dtm": e, "left": tile.core[0], "top": tile.core[3], "points": 0,
+                "dropped": {}, "outlier_points": 0}
     spec = s["spec"]
     x0, y0, x1, y1 = tile.core
     c0 = max(0, int(math.floor((x0 - spec.left) / spec.res + 1e-9)))
@@ -431,7 +453,8 @@ def chm_tiled(input, output, *, tile_size=None, buffer=None, workers=None, sched
             for k, v in r["dropped"].items():
                 dropped[k] = dropped.get(k, 0) + v
     prog.update(1.0, "done")
-    return {"output": str(output), "files": len(catalog.files), "points": points, "res": res,
+    return {"output": str(output), "files": len(catalog.files), "points": catalog.count,
+            "points_read": points, "res": res,
             "shape": gspec.shape, "tiles": len(tiles), "crs": crs_label(catalog.crs),
             "dropped_classes": {str(k): v for k, v in sorted(dropped.items())} or None,
             "outlier_points": outliers or None}

@@ -133,3 +133,17 @@ def test_bcts_tiled_equals_untiled(data, tmp_path):
     ca = pyogrio.read_dataframe(tmp_path / "a.gpkg", layer="crowns").set_index("tree_id").sort_index()
     cb = pyogrio.read_dataframe(tmp_path / "b.gpkg", layer="crowns").set_index("tree_id").sort_index()
     np.testing.assert_allclose(ca.crown_area, cb.crown_area, rtol=1e-12)
+
+
+def test_empty_tiles_between_files_are_skipped(split_stand, tmp_path):
+    d, files, _ = split_stand
+    lst = tmp_path / "two.txt"
+    lst.write_text(f"{files[0]}\n{files[2]}\n")  # a 21 m strip without points between them
+    r = trees_tiled(lst, tmp_path / "t.gpkg", tile_size=10, workers=1,
+                    chm_out=tmp_path / "c.tif")
+    both = trees_tiled(d, tmp_path / "all.gpkg", tile_size=10, workers=1)
+    assert 0 < r["trees"] < both["trees"] and r["tiles"] == both["tiles"]
+    with rasterio.open(tmp_path / "c.tif") as ds:
+        a = ds.read(1, masked=True)
+        col = ds.width // 2
+        assert a.mask[:, col].all()  # nodata in the gap, not a smeared canopy

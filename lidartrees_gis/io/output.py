@@ -23,6 +23,16 @@ def check_output(path, overwrite: bool = False, *, param: str = "OUTPUT") -> Pat
     return p
 
 
+def check_not_input(output, *inputs, param: str = "OUTPUT") -> None:
+    """Refuse an output that is one of the inputs (it would be overwritten while read)."""
+    if output is None:
+        return
+    o = Path(output).resolve()
+    for i in inputs:
+        if i is not None and Path(str(i)).exists() and Path(str(i)).resolve() == o:
+            raise InputError(f"{param}: {output} is also an input; write to another file")
+
+
 @contextlib.contextmanager
 def atomic_output(path, overwrite: bool = False, *, param: str = "OUTPUT"):
     """Yield a temporary path beside ``path``; on success rename it to ``path``.

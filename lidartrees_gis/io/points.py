@@ -20,6 +20,8 @@ from ..errors import CRSError, InputError, ReadError
 from ..progress import as_progress, check_cancel
 
 LAS_SUFFIXES = (".las", ".laz")
+#: a plain ASCII decimal number (what the XYZ readers accept)
+_ASCII_NUMBER = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?\Z")
 DEFAULT_CHUNK = 1_000_000
 
 #: names accepted in an XYZ header or ``columns=`` for each attribute
@@ -119,8 +121,8 @@ def _open_text(path: Path):
     with open(path, "rb") as fh:
         magic = fh.read(2)
     if magic == b"\x1f\x8b":
-        return gzip.open(path, "rt", encoding="utf-8", errors="replace", newline=None)
-    return open(path, "r", encoding="utf-8", errors="replace", newline=None)
+        return gzip.open(path, "rt", encoding="utf-8-sig", errors="replace", newline=None)
+    return open(path, "r", encoding="utf-8-sig", errors="replace", newline=None)  # BOM dropped
 
 
 _DELIMS = {"tab": "\t", "\\t": "\t", "\t": "\t", "space": None, "whitespace": None, " ": None,
@@ -435,10 +437,12 @@ class PointSource:
                 why = f"{len(toks)} column(s), need {ncol_min}"
             else:
                 try:
+                    if not all(_ASCII_NUMBER.match(toks[i].strip()) for i in usecols):
+                        raise ValueError  # Python's float() takes '1_000' and non-ASCII digits
                     vals = [float(toks[i]) for i in usecols]
                     if not all(np.isfinite(vals)):
                         why = "value is NaN or infinite"
-                except ValueError:
+                except (ValueError, IndexError):
                     why = "not a number"
             if why is None:
                 rows.append(vals)
