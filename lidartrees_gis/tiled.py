@@ -69,11 +69,11 @@ def _window_density(catalog: Catalog, box, opts: dict) -> float:
 def area_parameters(catalog: Catalog, res, params, opts: dict, *, window: float = 150.0) -> dict:
     """Cell size, crown scale and dominant height of the whole area, measured once.
 
-    All three are measured on a ``window``-metre square at the middle of the area (or at the
-    middle of the first file that holds canopy, if the middle has none): the point density
-    over the 1 m cells holding points gives the cell size, the CHM the crown scale and the
-    dominant height. They depend on the points only, not on how the area is tiled or split
-    into files.
+    They are measured on up to nine ``window``-metre squares centred on a 3 x 3 grid over the
+    area (windows without points or canopy are skipped): the median point density over the 1 m
+    cells holding points gives the cell size; the medians of the windows' crown scales and
+    95th percentiles of canopy height give the crown scale and the dominant height. They
+    depend on the points only, not on how the area is tiled or split into files.
     """
     from .chm import chm_resolution, crown_scale
     from .grid import check_resolution
@@ -85,37 +85,43 @@ def area_parameters(catalog: Catalog, res, params, opts: dict, *, window: float 
     if params.crown_scale is None and params.spacing is not None:
         out["crown_scale"] = SPACING_FACTOR * min(params.spacing)
     x0, y0, x1, y1 = catalog.extent
-    centres = [((x0 + x1) / 2, (y0 + y1) / 2)] + [((b[0] + b[2]) / 2, (b[1] + b[3]) / 2)
-                                                 for b in catalog.bounds]
-    for cx, cy in centres:
-        h = window / 2
-        box = (max(cx - h, x0), max(cy - h, y0), min(cx + h, x1), min(cy + h, y1))
-        r = fixed_res
-        if r is None:
-            dens = _window_density(catalog, box, opts)
-            if not np.isfinite(dens):
-                continue
-            r = chm_resolution(int(round(dens * 1e6)), 1e6)
-        if out["crown_scale"] is not None and out["dominant_height"] is not None:
-            out["res"] = r
-            return out
-        s = _surfaces(catalog, box, {**opts, "res": r})
+    h = window / 2
+    boxes = []
+    for fy in (1 / 6, 1 / 2, 5 / 6):
+        for fx in (1 / 6, 1 / 2, 5 / 6):
+            cx, cy = x0 + fx * (x1 - x0), y0 + fy * (y1 - y0)
+            box = (max(cx - h, x0), max(cy - h, y0), min(cx + h, x1), min(cy + h, y1))
+            if box not in boxes:
+                boxes.append(box)
+    dens = [d for d in (_window_density(catalog, b, opts) for b in boxes) if np.isfinite(d)]
+    if not dens:
+        raise InputError(f"{catalog.files[0]}: no points found to measure the point density")
+    r = fixed_res if fixed_res is not None else chm_resolution(int(round(np.median(dens) * 1e6)), 1e6)
+    out["res"] = r
+    if out["crown_scale"] is not None and out["dominant_height"] is not None:
+        return out
+    scales, heights = [], []
+    for b in boxes:
+        s = _surfaces(catalog, b, {**opts, "res": r})
         if s is None:
             continue
         chm = s["chm"]
         canopy = chm[np.isfinite(chm) & (chm >= params.min_height)]
         if canopy.size < 25:
             continue
-        cs = out["crown_scale"] if out["crown_scale"] is not None else \
-            crown_scale(chm, r, min_height=params.min_height)
-        if not np.isfinite(cs):
-            continue
-        out.update(res=r, crown_scale=cs)
-        if out["dominant_height"] is None:
-            out["dominant_height"] = float(np.percentile(canopy, 95))
-        return out
-    raise InputError(f"{catalog.files[0]}: no canopy above {params.min_height:g} m found to "
-                     "measure the crown scale; give -crown_scale and -tr")
+        heights.append(float(np.percentile(canopy, 95)))
+        if out["crown_scale"] is None:
+            cs = crown_scale(chm, r, min_height=params.min_height)
+            if np.isfinite(cs):
+                scales.append(cs)
+    if out["crown_scale"] is None:
+        if not scales:
+            raise InputError(f"{catalog.files[0]}: no canopy above {params.min_height:g} m found "
+                             "to measure the crown scale; give -crown_scale")
+        out["crown_scale"] = float(np.median(scales))
+    if out["dominant_height"] is None:
+        out["dominant_height"] = float(np.median(heights)) if heights else max(params.min_height, 1.0)
+    return out
 
 
 def tile_trees(tile: Tile, catalog: Catalog, params, opts: dict) -> dict:
@@ -412,16 +418,10 @@ def chm_tiled(input, output, *, tile_size=None, buffer=None, workers=None, sched
     prog = as_progress(progress)
     catalog = Catalog.open(input, a_srs=a_srs, **(read_kw or {}))
     opts = _options(kw)
-    res = opts["res"]
-    if str(res).lower() == "auto":  # as trees_tiled: the density in the middle of the area
-        x0, y0, x1, y1 = catalog.extent
-        cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
-        dens = _window_density(catalog, (max(cx - 75, x0), max(cy - 75, y0), min(cx + 75, x1),
-                                         min(cy + 75, y1)), opts)
-        res = chm_resolution(int(round(dens * 1e6)), 1e6) if np.isfinite(dens) else \
-            chm_resolution(catalog.count, catalog.area)
-    else:
-        res = check_resolution(res)
+    from .trees import TreeParams
+
+    res = area_parameters(catalog, opts["res"], TreeParams(crown_scale=1.0, dominant_height=1.0),
+                          opts)["res"]  # the same cell size as trees_tiled
     opts["res"] = res
     ts = float(tile_size) if tile_size else TILE_SIZE
     if math.isfinite(ts):

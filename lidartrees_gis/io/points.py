@@ -21,7 +21,8 @@ from ..progress import as_progress, check_cancel
 
 LAS_SUFFIXES = (".las", ".laz")
 #: a plain ASCII decimal number (what the XYZ readers accept)
-_ASCII_NUMBER = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?\Z")
+_ASCII_NUMBER = re.compile(r"[+-]?(?:(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?|nan|inf|infinity)\Z",
+                           re.IGNORECASE)
 DEFAULT_CHUNK = 1_000_000
 
 #: names accepted in an XYZ header or ``columns=`` for each attribute
