@@ -285,100 +285,157 @@ def _options(kw: dict) -> dict:
             "keep_class": kw.get("keep_class")}
 
 
-def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, workers=None,
-                scheduler=None, nln="", layer_options=None, overwrite=False, append=False,
-                chm_out=None, creation_options=None, a_srs=None, progress=None, read_kw=None,
-                **kw) -> dict:
-    """``lidartrees trees`` over many files or a large area, tile by tile (see module doc)."""
+def _tree_frames(r: dict, method: str, crs):
+    """Tops and crowns GeoDataFrames of one tile's trees."""
     import geopandas as gpd
     import pandas as pd
     import shapely
 
+    cols = ("tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_cells")
+    order = np.argsort(r["tree_id"], kind="stable")
+    attrs = pd.DataFrame({c: np.asarray(r[c])[order] for c in cols})
+    attrs["tree_id"] = attrs["tree_id"].astype("int64")
+    attrs["n_cells"] = attrs["n_cells"].astype("int64")
+    attrs["method"] = method
+    geoms = shapely.from_wkb(np.asarray(list(r["wkb"]), dtype=object)[order])
+    tops = gpd.GeoDataFrame(attrs.copy(), geometry=shapely.points(attrs["x"], attrs["y"]), crs=crs)
+    crowns = gpd.GeoDataFrame(attrs.copy(), geometry=geoms, crs=crs)
+    return tops, crowns
+
+
+def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, workers=None,
+                scheduler=None, nln="", layer_options=None, overwrite=False, append=False,
+                chm_out=None, creation_options=None, a_srs=None, progress=None, read_kw=None,
+                **kw) -> dict:
+    """``lidartrees trees`` over many files or a large area, tile by tile (see module doc).
+
+    Trees are appended to the GeoPackage (a temporary copy, renamed at the end) as tiles finish,
+    so the calling process holds one tile's trees at a time; the summary table comes last.
+    """
+    import contextlib
+    import shutil
+    import warnings
+    from pathlib import Path
+
+    import pandas as pd
+    import pyogrio
+
     from . import __version__
     from .crs import crs_label
     from .grid import GridSpec
-    from .io.output import atomic_output, check_output
-    from .io.vector import write_gpkg
+    from .io.output import atomic_output, check_not_input, check_output
+    from .progress import SubProgress
     from .trees import TreeParams
 
     p = params or TreeParams()
     if p.spacing is not None:
         raise InputError("-spacing (plantation mode) works on one tile at a time for now: run "
                          "trees on each stand's file without -tile_size")
+    out_path = Path(output)
+    if out_path.suffix.lower() != ".gpkg":
+        raise InputError(f"OUTPUT: {out_path}: expected a .gpkg file name")
     if not (overwrite or append):
         check_output(output, False)
     if chm_out:
         check_output(chm_out, overwrite, param="-chm_out")
     prog = as_progress(progress)
     catalog = Catalog.open(input, a_srs=a_srs, **(read_kw or {}))
+    for f in catalog.files:
+        check_not_input(output, f)
+        check_not_input(chm_out, f, param="-chm_out")
     opts = _options(kw)
     prog.update(0.01, "area parameters")
     p, opts, tiles, buf = plan(catalog, p, opts, tile_size, buffer)
     res = opts["res"]
     gspec = GridSpec.from_bounds(*catalog.extent, res, crs=catalog.crs)
-    cols = {c: [] for c in ("tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_cells")}
-    wkb, canopy, points, dropped, outliers = [], 0, 0, {}, 0
-    import contextlib
-
+    crs = catalog.crs.to_wkt() if catalog.crs is not None else None
+    meta = {"lidartrees_version": __version__, "input": str(input),
+            "files": [str(f) for f in catalog.files], "res": res, **opts, **p.as_dict(),
+            "tiles": len(tiles), "buffer": buf}
+    meta = {k: (v if isinstance(v, str) else __import__("json").dumps(v, default=str))
+            for k, v in meta.items()}
+    names = {"tops": f"{nln}tree_tops", "crowns": f"{nln}crowns", "summary": f"{nln}summary"}
+    ids, n, hsum, h2sum, dsum = [], 0, 0.0, 0.0, 0.0
+    canopy, points, dropped, outliers = 0, 0, {}, 0
     with contextlib.ExitStack() as stack:
+        tmp = stack.enter_context(atomic_output(output, overwrite=True))
+        existing = set()
+        if append and out_path.exists():
+            shutil.copyfile(out_path, tmp)
+            existing = {name for name, _ in pyogrio.list_layers(tmp)}
+        created = set()
+
+        def put(df, layer, geometry_type=None):
+            with warnings.catch_warnings():
+                warnings.filterwarnings("ignore", message="'crs' was not provided")
+                new = layer not in existing and layer not in created
+                pyogrio.write_dataframe(df, tmp, layer=layer, driver="GPKG", append=not new,
+                                        layer_options=(layer_options or None) if new else None,
+                                        layer_metadata=meta if new else None,
+                                        geometry_type=geometry_type)
+            created.add(layer)
+
         mosaic = None
         if chm_out:
-            tmp = stack.enter_context(atomic_output(chm_out, overwrite, param="-chm_out"))
-            mosaic = MosaicWriter(tmp, gspec, creation_options=creation_options,
+            ctmp = stack.enter_context(atomic_output(chm_out, overwrite, param="-chm_out"))
+            mosaic = MosaicWriter(ctmp, gspec, creation_options=creation_options,
                                   description="canopy height (m)",
                                   tags={"LIDARTREES_COMMAND": "trees", "LIDARTREES_INPUT": str(input)})
             stack.callback(mosaic.close)
-        from .progress import SubProgress
-
         for r in run_tiles(tile_trees, tiles, (catalog, p, opts), workers=workers,
-                           scheduler=scheduler, progress=SubProgress(prog, 0.02, 0.9)):
-            for c in cols:
-                cols[c].append(r[c])
-            wkb.extend(list(r["wkb"]))
+                           scheduler=scheduler, progress=SubProgress(prog, 0.02, 0.95)):
+            k = len(r["tree_id"])
+            if k:
+                tops, crowns = _tree_frames(r, p.method, crs)
+                put(tops, names["tops"], "Point")
+                put(crowns, names["crowns"], "Polygon")
+                ids.append(np.asarray(r["tree_id"], np.int64))
+                h = np.asarray(r["height"], float)
+                n += k
+                hsum += float(h.sum())
+                h2sum += float((h ** 2).sum())
+                dsum += float(np.sum(r["crown_diameter"]))
             canopy += r["canopy_cells"]
             points += r["points"]
             outliers += r["outlier_points"] or 0
-            for k, v in r["dropped"].items():
-                dropped[k] = dropped.get(k, 0) + v
+            for c, v in r["dropped"].items():
+                dropped[c] = dropped.get(c, 0) + v
             if mosaic is not None:
                 mosaic.write(r["chm"], r["chm_left"], r["chm_top"])
-    table = {c: (np.concatenate(v) if v else np.empty(0)) for c, v in cols.items()}
-    order = np.argsort(table["tree_id"], kind="stable")
-    table = {c: v[order] for c, v in table.items()}
-    geoms = shapely.from_wkb(np.asarray(wkb, dtype=object)[order]) if len(wkb) else []
-    n = len(table["tree_id"])
-    attrs = pd.DataFrame({c: table[c] for c in cols})
-    attrs["tree_id"] = attrs["tree_id"].astype("int64")
-    attrs["n_cells"] = attrs["n_cells"].astype("int64")
-    attrs["method"] = p.method
-    crs = catalog.crs.to_wkt() if catalog.crs is not None else None
-    tops = gpd.GeoDataFrame(attrs.copy(), geometry=shapely.points(table["x"], table["y"]), crs=crs)
-    crowns = gpd.GeoDataFrame(attrs.copy(), geometry=geoms, crs=crs)
-    area_ha = canopy * res * res / 1e4
-    h = table["height"]
-    summary = pd.DataFrame([{
-        "trees": n, "area_ha": area_ha, "trees_per_ha": n / area_ha if area_ha else np.nan,
-        "mean_height": float(np.mean(h)) if n else np.nan,
-        "sd_height": float(np.std(h, ddof=1)) if n > 1 else np.nan,
-        "mean_crown_diameter": float(np.mean(table["crown_diameter"])) if n else np.nan,
-        "method": p.method, "smooth": p.smooth, "tops": p.tops_finder, "res": res,
-        "crown_scale": p.crown_scale, "dominant_height": p.dominant_height,
-        "tiles": len(tiles), "tile_size": tiles[0].core[2] - tiles[0].core[0] if tiles else np.nan,
-        "buffer": buf}])
-    meta = {"lidartrees_version": __version__, "input": str(input),
-            "files": [str(f) for f in catalog.files], "res": res, **opts, **p.as_dict(),
-            "tiles": len(tiles), "buffer": buf, "dropped_classes": dropped or None,
-            "outlier_points": outliers or None}
-    write_gpkg(output, {f"{nln}tree_tops": tops, f"{nln}crowns": crowns, f"{nln}summary": summary},
-               overwrite=overwrite, append=append, layer_options=layer_options, metadata=meta)
+        if n == 0:  # the layers exist even without trees
+            import geopandas as gpd
+
+            empty = {c: pd.Series([], dtype="int64" if c in ("tree_id", "n_cells") else "float64")
+                     for c in ("tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_cells")}
+            empty["method"] = pd.Series([], dtype=object)
+            put(gpd.GeoDataFrame(empty, geometry=gpd.GeoSeries([], crs=crs)), names["tops"], "Point")
+            put(gpd.GeoDataFrame(empty, geometry=gpd.GeoSeries([], crs=crs)), names["crowns"], "Polygon")
+        area_ha = canopy * res * res / 1e4
+        mean_h = hsum / n if n else np.nan
+        sd_h = float(np.sqrt(max(h2sum - n * mean_h ** 2, 0.0) / (n - 1))) if n > 1 else np.nan
+        summary = pd.DataFrame([{
+            "trees": n, "area_ha": area_ha, "trees_per_ha": n / area_ha if area_ha else np.nan,
+            "mean_height": mean_h, "sd_height": sd_h,
+            "mean_crown_diameter": dsum / n if n else np.nan,
+            "method": p.method, "smooth": p.smooth, "tops": p.tops_finder, "res": res,
+            "crown_scale": p.crown_scale, "dominant_height": p.dominant_height,
+            "tiles": len(tiles), "tile_size": tiles[0].core[2] - tiles[0].core[0] if tiles else np.nan,
+            "buffer": buf, "points": catalog.count, "outlier_points": outliers,
+            "dropped_classes": ",".join(f"{c}:{v}" for c, v in sorted(dropped.items()))}])
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message=".*geometry.*")
+            pyogrio.write_dataframe(summary, tmp, layer=names["summary"], driver="GPKG",
+                                    append=names["summary"] in existing)
     prog.update(1.0, "done")
+    tree_ids = np.concatenate(ids) if ids else np.empty(0, np.int64)
     return {"output": str(output), "trees": n, "crs": crs_label(catalog.crs), "files": len(catalog.files),
-            "points": catalog.count, "points_read": points, "tiles": len(tiles), "buffer": round(buf, 2), "res": res,
-            "crown_scale": round(float(p.crown_scale), 3), "mean_height": round(float(np.mean(h)), 2) if n else None,
-            "mean_crown_diameter": round(float(np.mean(table["crown_diameter"])), 2) if n else None,
+            "points": catalog.count, "points_read": points, "tiles": len(tiles), "buffer": round(buf, 2),
+            "res": res, "crown_scale": round(float(p.crown_scale), 3),
+            "mean_height": round(mean_h, 2) if n else None,
+            "mean_crown_diameter": round(dsum / n, 2) if n else None,
             "trees_per_ha": round(n / area_ha, 1) if area_ha else None,
             "dropped_classes": {str(k): v for k, v in sorted(dropped.items())} or None,
-            "outlier_points": outliers or None, "table": None, "tree_ids": table["tree_id"]}
+            "outlier_points": outliers or None, "table": None, "tree_ids": tree_ids}
 
 
 def chm_tile(tile: Tile, catalog: Catalog, opts: dict) -> dict:
