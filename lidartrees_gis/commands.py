@@ -82,12 +82,29 @@ KP_PARAMS = (
     Param("b", "float", "Weight function b", flag="-b", default=4.0, advanced=True),
     Param("iterations", "float", "Iterations per level", flag="-iterations", default=5,
           advanced=True),
-    Param("cell", "float", "Cell of the finest filter surface", flag="-cell", default=3.0,
+    Param("cell", "float", "Cell of the finest filter surface", flag="-cell", default=1.5,
           advanced=True, unit="m"),
     Param("levels", "float", "Hierarchy levels (cell x 2^(levels-1) down to cell); 1 = plain "
-          "filter", flag="-levels", default=3, advanced=True),
-    Param("tolerance", "float", "Final ground = |residual| <= tolerance (FUSION /tolerance); "
-          "default: residual <= g + w", flag="-tolerance", advanced=True, unit="m"),
+          "filter", flag="-levels", default=5, advanced=True),
+    Param("w_growth", "float", "At coarser levels w grows by this much per metre of cell (w + "
+          "k x cell), so the coarse surfaces keep hilltops", flag="-w_growth", default=0.1,
+          advanced=True),
+    Param("refine", "float", "Densification passes against the TIN of the ground points (stops "
+          "when nothing changes); 0 = the plain robust-interpolation result", flag="-refine",
+          default=10, advanced=True),
+    Param("tolerance", "float", "One-sided tolerance above the surface (FUSION /tolerance): "
+          "ground = residual <= tolerance (+ slope term when refining); default 0.3 m when "
+          "refining, else residual <= g + w", flag="-tolerance", advanced=True, unit="m"),
+    Param("slope", "float", "Tolerance added per unit of terrain slope (m/m) when refining",
+          flag="-slope", default=1.25, advanced=True),
+    Param("tin_cell", "float", "When refining, the TIN is built from the lowest ground point per "
+          "cell of this size (keeps it out of shrubs); 0 = every ground point", flag="-tin_cell",
+          default=1.5, advanced=True, unit="m"),
+    Param("low", "float", "Leave out of the surfaces points this far below the second lowest of "
+          "their 10 nearest neighbours (multipath); 0 = off", flag="-low", default=2.0,
+          advanced=True, unit="m"),
+    Param("gshift", "bool", "Shift g automatically each iteration from the residual histogram "
+          "(Kraus & Pfeifer)", flag="-gshift", default=False, advanced=True),
 )
 CHM_RES = Param("res", "res", "Cell size of the CHM built from points, m, or auto = "
                 "max(sqrt(1/n), 0.25) from the point density n, rounded to 0.05 m", flag="-tr",
@@ -312,14 +329,20 @@ def _compare(input, output, **kw):
 def _kp_params(kw):
     from .ground import KrausPfeifer
 
-    names = ("g", "w", "a", "b", "iterations", "cell", "levels", "tolerance")
-    vals = {}
+    names = ("g", "w", "a", "b", "iterations", "cell", "levels", "tolerance", "refine", "slope",
+             "tin_cell", "low", "w_growth")
+    vals = {"gshift": bool(kw.get("gshift"))}
     for n in names:
         v = kw.get(n)
         if v is None or (n in ("g", "w") and isinstance(v, str) and ":" in v):
             continue
         try:
-            vals[n] = int(v) if n in ("iterations", "levels") else float(v)
+            f = float(v)
+            if n in ("iterations", "levels", "refine"):
+                if f != int(f):
+                    raise ValueError
+                f = int(f)
+            vals[n] = f
         except ValueError:
             from .errors import InputError
 
@@ -332,7 +355,7 @@ def _ground(input, output, **kw):
 
     return pipeline.ground_file(input, output, dtm_out=kw.get("dtm_out"), res=kw.get("res") or "auto",
                                 params=_kp_params(kw), overwrite=bool(kw.get("overwrite")),
-                                creation_options=_co(kw),
+                                reclassify=bool(kw.get("reclassify")), creation_options=_co(kw),
                                 progress=kw.get("progress"), **_read_kw(kw))
 
 
@@ -496,18 +519,23 @@ COMMANDS = {
                default="mean8", advanced=True),
          *READ, OVERWRITE), _compare, outputs=("output",)),
     "ground": Command(
-        "ground", "Ground", "Ground points by Kraus & Pfeifer robust interpolation (seed 003), "
-        "classified LAS/LAZ and DTM",
+        "ground", "Ground", "Ground points by Kraus & Pfeifer hierarchical robust interpolation "
+        "(seed 003) and TIN densification, classified LAS/LAZ and DTM",
         (INPUT, Param("output", "output", "Output classified LAS/LAZ (ground = class 2)"),
          Param("dtm_out", "output", "Also write the DTM GeoTIFF (linear TIN of the ground points)",
                flag="-dtm"),
          Param("res", "res", "DTM cell size, m, or auto = sqrt(1/n) (seed 003)", flag="-tr",
                aliases=("--resolution",), default="auto", unit="m"),
-         *KP_PARAMS, *READ, CO, OVERWRITE), _ground, outputs=("output", "dtm_out")),
+         *KP_PARAMS,
+         Param("reclassify", "bool", "Also give the filter's decision to points of other classes "
+               "(water, buildings...); by default only classes 0, 1, 2 change", flag="-reclassify",
+               default=False, advanced=True),
+         *READ, CO, OVERWRITE), _ground, outputs=("output", "dtm_out")),
     "dtm-quality": Command(
         "dtm-quality", "Ground", "DTM quality sweep of seed 003: Kraus & Pfeifer (g, w) grid, "
         "GLCM texture, PCA, k-means",
-        (INPUT, Param("outdir", "outdir", "Output folder (CSV, hillshade PNGs)", required=True),
+        (INPUT, Param("outdir", "outdir", "Output folder (CSV, hillshade PNGs, recommended_dtm.tif)",
+                      required=True),
          Param("g", "str", "g values START:STOP:STEP (seed 003: -4:1:0.5)", flag="-g",
                default="-4:1:0.5"),
          Param("w", "str", "w values START:STOP:STEP (seed 003: 1:4:0.5)", flag="-w",

@@ -1,24 +1,43 @@
 """Ground filtering by robust interpolation (Kraus & Pfeifer 1998, as in FUSION's GroundFilter,
 tuned for eucalyptus by Leite et al., seed 003) and the DTM texture-quality sweep of seed 003.
 
-Surface model (documented choice): a grid of ``cell`` metres; each cell holds the weighted mean
-height of its points (weights from the previous iteration; all 1 at the start), empty cells are
-filled by :func:`lidartrees_gis.grid.fill_mean8`, and the surface at a point is the bilinear
-interpolation of the cell centres. The filter runs hierarchically (after Pfeifer et al.'s
-hierarchical robust interpolation): ``levels`` grids from ``cell * 2**(levels-1)`` down to
-``cell``, ``iterations`` each, every level starting from the weights of the coarser one, so large
-objects (buildings, dense crowns) are rejected at the coarse levels and terrain detail comes
-back at the fine ones; ``levels=1`` is the plain single-grid filter. Residual v = z - surface.
-Weights (seed 003, eq. 1)::
+The filter has two stages.
 
-    p = 1                          v <= g
-    p = 1 / (1 + (a (v - g))^b)    g < v <= g + w
-    p = 0                          v > g + w
+1. **Robust interpolation** (the seed's method). Surface: a grid of ``cell`` metres; each cell
+   holds the weighted least-squares plane of its points evaluated at the cell centre (the
+   weighted mean, FUSION's intermediate surface, where fewer than 3 points or a line; weights from
+   the previous iteration, all 1 at the start), empty cells are filled by
+   :func:`lidartrees_gis.grid.fill_mean8`, and the surface at a point is the bilinear
+   interpolation of the cell centres (a cell mean alone sags on slopes and at the borders). It runs
+   hierarchically (Pfeifer et al. 2001): ``levels`` grids from ``cell * 2**(levels-1)`` down to
+   ``cell``, ``iterations`` each, every level starting from the weights of the coarser one, so
+   buildings and dense crowns are rejected at the coarse levels and terrain detail comes back at
+   the fine ones. At a coarser level of cell c the band is widened to w + ``w_growth`` (c - cell)
+   (0.1 m per metre: 2.25 m more at 24 m; the finest level uses w itself) so that the coarse
+   surfaces, which cannot follow hills, do not throw the hilltops away. Residual v = z - surface. Weights (seed 003, eq. 1)::
 
-g is kept fixed between iterations (it is what seed 003 sweeps; FUSION's automatic shift of g is
-not reproduced). After the last iteration, points within the ground band (v <= g + w, against
-the final surface) are ground (class 2); with ``tolerance`` (FUSION's /tolerance) the points
-with |v| <= tolerance are.
+       p = 1                          v <= g
+       p = 1 / (1 + (a (v - g))^b)    g < v <= g + w
+       p = 0                          v > g + w
+
+   g is fixed (what seed 003 sweeps) unless ``gshift``: then, as in Kraus & Pfeifer's automatic
+   shift, each iteration takes g = max(g, -2 s) with s the RMS of the negative residuals of the
+   points weighted >= 0.5 in the previous iteration (the ground branch of the histogram).
+   Points of the ground band (v <= g + w; with ``refine``, v <= max(g + w, tolerance) so that
+   g = -w, whose surface settles on the lowest points, still seeds the ground) are the
+   robust-interpolation ground.
+
+2. **Densification against a real surface** (at most ``refine`` passes, default 10, until no
+   point changes): a linear TIN of the lowest current ground point in each ``tin_cell`` cell
+   (1.5 m; all of them with 0; taking the lowest keeps the TIN from creeping up into shrubs),
+   sampled on a grid of sqrt(area / n) metres (0.5-2 m); a point is ground when ``-(1 + slope * S) <= v <= tolerance + slope * S``, S being
+   the terrain slope (m/m) of the TIN at the point. The tolerance is one-sided upwards as FUSION's
+   ``/tolerance``; the slope term (as in SMRF) keeps steep ground. ``refine=0`` gives the plain
+   filter: v <= g + w, or v <= ``tolerance`` when set (FUSION).
+
+Isolated low points (more than ``low`` metres below the second lowest of their 10 nearest
+neighbours, multipath echoes) are left out of every surface; they are ground only if they fall in
+the final band.
 """
 from __future__ import annotations
 
@@ -33,16 +52,23 @@ from .progress import as_progress, check_cancel
 
 @dataclass(frozen=True)
 class KrausPfeifer:
-    """Parameters of the robust-interpolation ground filter (FUSION GroundFilter defaults)."""
+    """Parameters of the ground filter (defaults from the sweep on the ISPRS dev samples,
+    ``benchmarks/bench_ground.py``)."""
 
     g: float = -2.0
     w: float = 2.5
     a: float = 1.0
     b: float = 4.0
     iterations: int = 5
-    cell: float = 3.0
-    levels: int = 3
+    cell: float = 1.5
+    levels: int = 5
+    w_growth: float = 0.1
     tolerance: float | None = None
+    refine: int = 10
+    slope: float = 1.25
+    tin_cell: float = 1.5
+    low: float = 2.0
+    gshift: bool = False
 
     def __post_init__(self):
         if not self.w > 0:
@@ -53,13 +79,28 @@ class KrausPfeifer:
             raise InputError(f"-iterations must be >= 1, got {self.iterations}")
         if not self.cell > 0:
             raise InputError(f"-cell must be > 0 m, got {self.cell}")
-        if int(self.levels) < 1:
-            raise InputError(f"-levels must be >= 1, got {self.levels}")
+        if not 1 <= int(self.levels) <= 12:
+            raise InputError(f"-levels must be 1 to 12, got {self.levels}")
         if self.tolerance is not None and not self.tolerance > 0:
             raise InputError(f"-tolerance must be > 0 m, got {self.tolerance}")
+        if not 0 <= int(self.refine) <= 100:
+            raise InputError(f"-refine must be 0 to 100, got {self.refine}")
+        if not self.w_growth >= 0:
+            raise InputError(f"-w_growth must be >= 0, got {self.w_growth}")
+        if not self.tin_cell >= 0:
+            raise InputError(f"-tin_cell must be >= 0 m (0 = every ground point), got {self.tin_cell}")
+        if not self.slope >= 0:
+            raise InputError(f"-slope must be >= 0, got {self.slope}")
+        if not self.low >= 0:
+            raise InputError(f"-low must be >= 0 m (0 = keep low points), got {self.low}")
 
     def as_dict(self):
         return asdict(self)
+
+    @property
+    def refine_tolerance(self) -> float:
+        """Upper tolerance of the densification passes (0.3 m unless ``tolerance`` is set)."""
+        return 0.3 if self.tolerance is None else float(self.tolerance)
 
 
 def kp_weights(v, g=-2.0, w=2.5, a=1.0, b=4.0):
@@ -74,34 +115,131 @@ def kp_weights(v, g=-2.0, w=2.5, a=1.0, b=4.0):
     return np.where(v > g + w, 0.0, p)
 
 
-def _surface(x, y, z, wts, spec: GridSpec):
+def shifted_g(v, weights, g):
+    """Automatic shift of g (option ``gshift``): max(g, -2 s), s = RMS of the negative residuals
+    of the points weighted >= 0.5."""
+    neg = v[(v < 0) & (weights >= 0.5)]
+    if neg.size == 0:
+        return g
+    return max(g, -2.0 * float(np.sqrt(np.mean(neg ** 2))))
+
+
+def low_points(x, y, z, depth=2.0, k=10):
+    """Isolated low points: more than ``depth`` metres below the second lowest of their ``k``
+    nearest neighbours (in plan)."""
+    from scipy.spatial import cKDTree
+
+    if depth <= 0 or x.size <= k:
+        return np.zeros(x.size, bool)
+    xy = np.column_stack([x, y])
+    _, idx = cKDTree(xy).query(xy, k=k + 1)
+    nz = np.partition(z[idx[:, 1:]], 1, axis=1)[:, 1]
+    return z < nz - depth
+
+
+def _surface(x, y, z, wts, spec: GridSpec, plane=True):
+    """Filter surface at the cell centres: per cell the weighted least-squares plane of its points
+    evaluated at the centre (the weighted mean where a plane is not determined: fewer than 3
+    points or all on a line), empty cells filled by mean8."""
     row, col = spec.cell_index(x, y)
     idx = row * spec.width + col
     n = spec.width * spec.height
     sw = np.bincount(idx, weights=wts, minlength=n)
     swz = np.bincount(idx, weights=wts * z, minlength=n)
     with np.errstate(invalid="ignore", divide="ignore"):
-        grid = np.where(sw > 0, swz / sw, np.nan).reshape(spec.shape)
-    return fill_mean8(grid)
+        grid = np.where(sw > 0, swz / sw, np.nan)
+    if plane:
+        cx = spec.left + (col + 0.5) * spec.res
+        cy = spec.top - (row + 0.5) * spec.res
+        dx, dy = (x - cx) / spec.res, (y - cy) / spec.res  # cell units: well conditioned
+        s = {k: np.bincount(idx, weights=wts * v, minlength=n)
+             for k, v in (("x", dx), ("y", dy), ("xx", dx * dx), ("xy", dx * dy), ("yy", dy * dy),
+                          ("xz", dx * z), ("yz", dy * z))}
+        M = np.stack([np.stack([sw, s["x"], s["y"]], -1), np.stack([s["x"], s["xx"], s["xy"]], -1),
+                      np.stack([s["y"], s["xy"], s["yy"]], -1)], -2)
+        rhs = np.stack([swz, s["xz"], s["yz"]], -1)
+        cnt = np.bincount(idx, weights=(wts > 0).astype(float), minlength=n)
+        det = np.linalg.det(M)
+        ok = (cnt >= 3) & (np.abs(det) > 1e-3 * np.maximum(sw, 1e-12) ** 3)
+        if ok.any():
+            sol = np.linalg.solve(M[ok], rhs[ok][..., None])[..., 0]
+            a = sol[:, 0]
+            # a plane fitted to a corner of the cell is not trusted far from its points
+            grid[ok] = np.where(np.abs(a - grid[ok]) < 2.0 * spec.res, a, grid[ok])
+    return fill_mean8(grid.reshape(spec.shape))
 
 
-def _bilinear(grid, spec: GridSpec, x, y):
-    """Bilinear interpolation of cell-centre values at points (edges clamped)."""
+def _bilinear(grid, spec: GridSpec, x, y, extrapolate=False):
+    """Bilinear interpolation of cell-centre values at points. Beyond the outer cell centres the
+    edge values are held, or with ``extrapolate`` the edge gradient is continued (half a cell at
+    most), so a surface on a slope does not sag at the borders."""
     fc = (np.asarray(x) - spec.left) / spec.res - 0.5
     fr = (spec.top - np.asarray(y)) / spec.res - 0.5
-    c0 = np.clip(np.floor(fc).astype(np.int64), 0, spec.width - 1)
-    r0 = np.clip(np.floor(fr).astype(np.int64), 0, spec.height - 1)
-    c1 = np.clip(c0 + 1, 0, spec.width - 1)
-    r1 = np.clip(r0 + 1, 0, spec.height - 1)
-    tx = np.clip(fc - c0, 0, 1)
-    ty = np.clip(fr - r0, 0, 1)
+    if extrapolate and spec.width > 1 and spec.height > 1:
+        c0 = np.clip(np.floor(fc).astype(np.int64), 0, spec.width - 2)
+        r0 = np.clip(np.floor(fr).astype(np.int64), 0, spec.height - 2)
+        tx = np.clip(fc - c0, -0.5, 1.5)
+        ty = np.clip(fr - r0, -0.5, 1.5)
+        c1, r1 = c0 + 1, r0 + 1
+    else:
+        c0 = np.clip(np.floor(fc).astype(np.int64), 0, spec.width - 1)
+        r0 = np.clip(np.floor(fr).astype(np.int64), 0, spec.height - 1)
+        c1 = np.clip(c0 + 1, 0, spec.width - 1)
+        r1 = np.clip(r0 + 1, 0, spec.height - 1)
+        tx = np.clip(fc - c0, 0, 1)
+        ty = np.clip(fr - r0, 0, 1)
     top = grid[r0, c0] * (1 - tx) + grid[r0, c1] * tx
     bot = grid[r1, c0] * (1 - tx) + grid[r1, c1] * tx
     return top * (1 - ty) + bot * ty
 
 
+def refine_cell(x, y) -> float:
+    """Cell of the densification DTM: sqrt(area / n), clipped to 0.5-2 m, rounded to 0.1 m."""
+    area = max(float(np.ptp(x)) * float(np.ptp(y)), 1.0)
+    return round(min(2.0, max(0.5, float(np.sqrt(area / max(x.size, 1))))), 1)
+
+
+def lowest_per_cell(x, y, z, sel, res):
+    """Mask of the lowest selected point in each ``res``-metre cell."""
+    idx = np.nonzero(sel)[0]
+    spec = GridSpec.from_bounds(x.min(), y.min(), x.max(), y.max(), res)
+    r, c = spec.cell_index(x[idx], y[idx])
+    key = r * spec.width + c
+    o = np.lexsort((z[idx], key))
+    k = key[o]
+    first = np.r_[True, k[1:] != k[:-1]]
+    m = np.zeros(x.size, bool)
+    m[idx[o[first]]] = True
+    return m
+
+
+def densify(x, y, z, ground, usable, params: KrausPfeifer, progress=None):
+    """Densification passes against the TIN of the current ground points (stage 2)."""
+    from .grid import interpolate_tin
+
+    p = params
+    res = refine_cell(x, y)
+    spec = GridSpec.from_bounds(x.min(), y.min(), x.max(), y.max(), res)
+    for _ in range(int(p.refine)):
+        check_cancel(progress)
+        seed = ground & usable
+        if p.tin_cell > 0:  # vertices: the lowest ground point per cell (no creep into shrubs)
+            seed = lowest_per_cell(x, y, z, seed, p.tin_cell)
+        if seed.sum() < 3:
+            break
+        dtm = interpolate_tin(x[seed], y[seed], z[seed], spec, max_radius=np.inf)
+        gy, gx = np.gradient(dtm, res)
+        slope = _bilinear(np.hypot(gx, gy), spec, x, y)
+        v = z - _bilinear(dtm, spec, x, y)
+        new = (v <= p.refine_tolerance + p.slope * slope) & (v >= -1.0 - p.slope * slope)
+        if np.array_equal(new, ground):
+            break
+        ground = new
+    return ground
+
+
 def kraus_pfeifer(x, y, z, params: KrausPfeifer | None = None, progress=None):
-    """Robust-interpolation ground filter.
+    """Ground filter: hierarchical robust interpolation, then densification (see module doc).
 
     Parameters
     ----------
@@ -111,36 +249,49 @@ def kraus_pfeifer(x, y, z, params: KrausPfeifer | None = None, progress=None):
     Returns
     -------
     ground : (N,) ndarray of bool
-        True for points within the ground band after the last iteration.
     weights : (N,) ndarray of float
-        Final weights.
+        Final weights of the robust interpolation.
     """
     p = params or KrausPfeifer()
     x, y, z = (np.asarray(a, dtype=np.float64) for a in (x, y, z))
     if x.size == 0:
         raise InputError("ground filter: no points")
-    wts = np.ones(x.size)
     prog = as_progress(progress)
+    usable = ~low_points(x, y, z, p.low)
+    if usable.sum() < 3:
+        usable[:] = True
+    ux, uy, uz = x[usable], y[usable], z[usable]
+    wts = np.ones(ux.size)
     levels = int(p.levels)
-    total = levels * int(p.iterations)
+    total = levels * int(p.iterations) + int(p.refine)
     step = 0
+    g = p.g
     for lev in range(levels):
-        spec = GridSpec.from_bounds(x.min(), y.min(), x.max(), y.max(),
+        spec = GridSpec.from_bounds(ux.min(), uy.min(), ux.max(), uy.max(),
                                     p.cell * 2 ** (levels - 1 - lev))
         for it in range(int(p.iterations)):
             check_cancel(progress)
-            surf = _surface(x, y, z, wts, spec)
+            surf = _surface(ux, uy, uz, wts, spec)
             v = z - _bilinear(surf, spec, x, y)
-            wts = kp_weights(v, p.g, p.w, p.a, p.b)
+            if p.gshift and (lev or it):
+                g = shifted_g(v[usable], wts, p.g)
+            wts = kp_weights(v[usable], g, p.w + p.w_growth * (spec.res - p.cell), p.a, p.b)
             if wts.sum() == 0:
                 raise InputError(f"ground filter: every weight became 0 at iteration {it + 1}; "
                                  "lower -g or raise -w")
             step += 1
             prog.update(step / total, f"level {lev + 1}/{levels}, iteration {it + 1}")
-    surf = _surface(x, y, z, wts, spec)
+    surf = _surface(ux, uy, uz, wts, spec)
     v = z - _bilinear(surf, spec, x, y)
-    ground = (np.abs(v) <= p.tolerance) if p.tolerance is not None else (v <= p.g + p.w)
-    return ground, kp_weights(v, p.g, p.w, p.a, p.b)
+    if p.refine == 0:
+        ground = v <= (p.tolerance if p.tolerance is not None else g + p.w)
+    else:  # seed of the densification: the ground band, at least the tolerance above the surface
+        ground = v <= max(g + p.w, p.refine_tolerance)
+    weights = kp_weights(v, g, p.w, p.a, p.b)
+    if p.refine:
+        ground = densify(x, y, z, ground, usable, p, progress)
+    prog.update(1.0, "ground filter done")
+    return ground, weights
 
 
 # ---------------------------------------------------------------------------------------------
@@ -233,10 +384,13 @@ def _standardise(X):
 
 def kmeans(X, k: int = 3, seed: int = 0, restarts: int = 10):
     """k-means (scipy, k-means++ start), best of ``restarts`` seeded runs; returns
-    (labels, centroids)."""
+    (labels, centroids). With fewer than ``k`` distinct rows, each distinct row is a cluster."""
     from scipy.cluster.vq import kmeans2
 
     X = np.asarray(X, dtype=np.float64)
+    uniq, inv = np.unique(np.round(X, 9), axis=0, return_inverse=True)
+    if len(uniq) <= k:
+        return inv.ravel(), uniq
     best = None
     for r in range(restarts):
         cent, lab = kmeans2(X, k, minit="++", seed=seed + r)
@@ -244,5 +398,5 @@ def kmeans(X, k: int = 3, seed: int = 0, restarts: int = 10):
         if len(np.unique(lab)) == k and (best is None or sse < best[0]):
             best = (sse, lab, cent)
     if best is None:
-        raise InputError(f"k-means could not form {k} clusters (too few distinct DTMs)")
+        raise InputError(f"k-means could not form {k} clusters")
     return best[1], best[2]

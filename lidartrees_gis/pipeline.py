@@ -693,14 +693,21 @@ def compare_file(input, output, *, res="auto", dtm="auto", chm="pitfree", fill="
 # ---------------------------------------------------------------------------------------------
 # ground filter and DTM quality (seed 003)
 def ground_points(src: PointSource, params=None, progress=None):
-    """Run the Kraus & Pfeifer filter on every point of ``src``: (points, ground mask)."""
+    """Run the ground filter on the points of ``src``: (points, ground mask). Points of the noise
+    classes (7, 18) take no part and are never ground."""
     from .ground import kraus_pfeifer
 
     prog = as_progress(progress)
     pts = src.read_all(SubProgress(prog, 0.0, 0.2))
     if len(pts) == 0:
         raise InputError(f"{src.path}: no points")
-    ground, _ = kraus_pfeifer(pts.x, pts.y, pts.z, params, progress=SubProgress(prog, 0.2, 0.8))
+    use = (~np.isin(pts.classification, NOISE_CLASSES) if pts.classification is not None
+           else np.ones(len(pts), bool))
+    if use.sum() == 0:
+        raise InputError(f"{src.path}: every point is classified as noise (7 or 18)")
+    ground = np.zeros(len(pts), bool)
+    ground[use], _ = kraus_pfeifer(pts.x[use], pts.y[use], pts.z[use], params,
+                                   progress=SubProgress(prog, 0.2, 0.8))
     if ground.sum() < 3:
         raise InputError(f"{src.path}: the ground filter kept {int(ground.sum())} points; "
                          "raise -w or lower -g")
@@ -720,8 +727,24 @@ def dtm_from_ground(pts, ground, spec: GridSpec) -> np.ndarray:
     return interpolate_tin(pts.x[ground], pts.y[ground], pts.z[ground], spec)
 
 
+def ground_classes(classification, ground, reclassify=False) -> np.ndarray:
+    """Classes written by ``ground``: the filter's decision (2 ground, 1 not) for points that were
+    never classified, unclassified or ground (0, 1, 2); every other class (water, buildings,
+    noise...) is kept unless ``reclassify``. Noise (7, 18) is never made ground."""
+    ground = np.asarray(ground, bool)
+    decided = np.where(ground, 2, 1).astype(np.uint8)
+    if classification is None:
+        return decided
+    c = np.asarray(classification).astype(np.uint8)
+    open_ = np.isin(c, (0, 1, 2))
+    if reclassify:
+        open_ = ~np.isin(c, NOISE_CLASSES)
+    return np.where(open_, decided, c).astype(np.uint8)
+
+
 def ground_file(input, output, *, dtm_out=None, res="auto", params=None, overwrite=False,
-                a_srs=None, t_srs=None, creation_options=None, progress=None, **read_kw) -> dict:
+                reclassify=False, a_srs=None, t_srs=None, creation_options=None, progress=None,
+                **read_kw) -> dict:
     """Classify ground (class 2) with Kraus & Pfeifer robust interpolation; write the classified
     LAS/LAZ and optionally the DTM GeoTIFF (linear TIN of the ground points, cell sqrt(1/n))."""
     from .io.lasout import write_classified
@@ -734,17 +757,17 @@ def ground_file(input, output, *, dtm_out=None, res="auto", params=None, overwri
     prog = as_progress(progress)
     pts, ground = ground_points(src, params, SubProgress(prog, 0, 0.7))
     check_cancel(prog)
-    cls = np.where(ground, 2, np.where(pts.classification == 2, 1, pts.classification)
-                   if pts.classification is not None else 1).astype(np.uint8)
+    cls = ground_classes(pts.classification, ground, reclassify)
     write_classified(output, src, cls, overwrite=overwrite)
-    out = {"output": str(output), "points": len(pts), "ground": int(ground.sum()),
-           "ground_share": float(ground.mean()), "crs": crs_label(src.crs)}
+    out = {"output": str(output), "points": len(pts), "ground": int((cls == 2).sum()),
+           "ground_share": float((cls == 2).mean()), "kept_classes": int((~np.isin(cls, (1, 2))).sum()),
+           "crs": crs_label(src.crs)}
     if dtm_out:
         r = resolve_resolution(src, res)
         spec = GridSpec.from_bounds(pts.x.min(), pts.y.min(), pts.x.max(), pts.y.max(), r,
                                     crs=src.crs)
         prog.update(0.85, "DTM")
-        dtm = dtm_from_ground(pts, ground, spec)
+        dtm = dtm_from_ground(pts, cls == 2, spec)
         check_cancel(prog)
         from .ground import KrausPfeifer
 
@@ -789,8 +812,8 @@ def _sweep_one(gw):
         ground, _ = kraus_pfeifer(x, y, z, replace(_SWEEP["base"], g=g, w=w))
     except InputError:
         ground = np.zeros(x.size, bool)
-    if ground.any():
-        dtm = grid_surface(x[ground], y[ground], z[ground], spec)
+    if ground.sum() >= 3:  # the same DTM as `ground -dtm` and `chm -dtm kp`: linear TIN
+        dtm = interpolate_tin(x[ground], y[ground], z[ground], spec)
     else:  # an incomplete DTM: nothing to interpolate
         dtm = np.full(spec.shape, np.nan)
     return g, w, int(ground.sum()), texture_descriptors(dtm), dtm.astype(np.float32)
@@ -819,32 +842,60 @@ def write_hillshade_png(path, dtm, res, title="", overwrite=False):
     plt.close(fig)
 
 
+def cluster_roles(X, names, labels, ground_points) -> dict:
+    """Seed 003's roles of the three k-means clusters: {cluster: "good" | "noisy" |
+    "incomplete"} (see :func:`dtm_quality_file`)."""
+    from .ground import _standardise
+
+    Z = _standardise(X)
+    cols = [i for i, n in enumerate(names) if n.startswith(("homogeneity", "dissimilarity"))]
+    score = Z[:, cols].mean(axis=1)
+    labels = np.asarray(labels)
+    npts = np.asarray(ground_points)
+    cl = [int(c) for c in np.unique(labels)]
+    complete = [c for c in cl if np.median(npts[labels == c]) > 0]
+    good = max(complete or cl, key=lambda c: score[labels == c].mean())
+    rest = [c for c in cl if c != good]
+    roles = {good: "good"}
+    if rest:
+        incomplete = min(rest, key=lambda c: np.median(npts[labels == c]))
+        roles[incomplete] = "incomplete"
+        roles.update({c: "noisy" for c in rest if c != incomplete})
+    return roles
+
+
 def dtm_quality_file(input, outdir, *, g="-4:1:0.5", w="1:4:0.5", res="auto", params=None,
                      seed=0, workers=None, overwrite=False, a_srs=None, t_srs=None, progress=None,
                      **read_kw) -> dict:
-    """Seed 003's DTM quality sweep: a DTM per (g, w) (cell mean of the ground points, gaps
-    filled by mean8, as FUSION's GridSurfaceCreate), 12 GLCM texture descriptors each, PCA
-    (descriptors with |PC1 loading| >= 0.3), k-means with k = 3, a CSV, one hillshade PNG per
-    cluster and a recommended (g, w).
+    """Seed 003's DTM quality sweep: the ground filter and a DTM per (g, w) (linear TIN of the
+    ground points, the DTM `ground -dtm` and `chm -dtm kp` write), 12 GLCM texture descriptors
+    each, PCA (descriptors with |PC1 loading| >= 0.3), k-means with k = 3, a CSV, one hillshade
+    PNG per cluster, a recommended (g, w) and its DTM (``recommended_dtm.tif``).
 
-    Rule for the recommendation (the seed's three groups are good, noisy and incomplete DTMs):
-    the *incomplete* cluster is the one whose DTMs keep the fewest ground points (median); of the
-    other two, the *noisy* one has the higher mean contrast and the other is *good*. The
-    recommended (g, w) is the good cluster's member nearest its centroid. ``rank`` orders all
-    DTMs by distance to the good centroid (1 = best).
+    Roles, as seed 003 §4 and Table 2 define the groups: the *good* cluster has the highest mean
+    homogeneity and dissimilarity (standardised, averaged over the 8 descriptors of those two
+    kinds) among the clusters of complete DTMs; of the others, the *incomplete* one keeps fewer
+    ground points (median; the seed's group 2 "could not be completely generated") and the last
+    is *noisy* (spikes and holes, group 0). When the sweep gives fewer than 3 distinct DTMs
+    (the densified filter often gives the same DTM for many (g, w)), each distinct DTM is a
+    cluster. The recommended (g, w) is the good cluster's member nearest its centroid. ``rank``
+    orders all DTMs by distance to the good centroid (1 = best).
     """
     import os
     from concurrent.futures import ProcessPoolExecutor
     from concurrent.futures import TimeoutError as FutureTimeout
 
+    from dataclasses import replace
+
     from .ground import KrausPfeifer, kmeans, pca_select, _standardise
 
     out = Path(outdir)
     csv_path = out / "dtm_quality.csv"
-    if csv_path.exists() and not overwrite:
-        from .errors import OutputExistsError
+    for pth in (csv_path, out / "recommended_dtm.tif"):
+        if pth.exists() and not overwrite:
+            from .errors import OutputExistsError
 
-        raise OutputExistsError(f"{csv_path}: output exists; use -overwrite to replace it")
+            raise OutputExistsError(f"{pth}: output exists; use -overwrite to replace it")
     gs, ws = parse_range(g, "-g"), parse_range(w, "-w")
     combos = [(gg, ww) for gg in gs for ww in ws]
     if len(combos) < 3:
@@ -881,15 +932,13 @@ def dtm_quality_file(input, outdir, *, g="-4:1:0.5", w="1:4:0.5", res="auto", pa
     names = list(results[0][3])
     X = np.array([[res_[3][n] for n in names] for res_ in results])
     sel, load, var = pca_select(X, 0.3)
+    if sel.size == 0:  # PC1 spread evenly (every |loading| < 0.3): keep every descriptor
+        sel = np.arange(X.shape[1])
     Z = _standardise(X)[:, sel]
     labels, cent = kmeans(Z, 3, seed=seed)
     npts = np.array([res_[2] for res_ in results])
-    contrast = X[:, [i for i, n in enumerate(names) if n.startswith("contrast")]].mean(axis=1)
-    incomplete = int(np.argmin([np.median(npts[labels == c]) for c in range(3)]))
-    rest = [c for c in range(3) if c != incomplete]
-    good = min(rest, key=lambda c: contrast[labels == c].mean())
-    roles = {incomplete: "incomplete", good: "good"}
-    roles.update({c: "noisy" for c in rest if c != good})
+    roles = cluster_roles(X, names, labels, npts)
+    good = next(c for c, r in roles.items() if r == "good")
     dist = np.linalg.norm(Z - cent[good], axis=1)
     rank = np.argsort(np.argsort(dist)) + 1
     members = np.nonzero(labels == good)[0]
@@ -904,7 +953,7 @@ def dtm_quality_file(input, outdir, *, g="-4:1:0.5", w="1:4:0.5", res="auto", pa
                 fh.write(f"{gg:g},{ww:g},{ng}," + ",".join(f"{d[n]:.6g}" for n in names)
                          + f",{labels[k]},{roles[int(labels[k])]},{rank[k]}\n")
     pngs = []
-    for c in range(3):
+    for c in sorted(roles):
         mem = np.nonzero(labels == c)[0]
         dc = np.linalg.norm(Z[mem] - cent[c], axis=1)
         k = int(mem[np.argmin(dc)])
@@ -913,15 +962,20 @@ def dtm_quality_file(input, outdir, *, g="-4:1:0.5", w="1:4:0.5", res="auto", pa
                             title=f"cluster {c} ({roles[c]}): g={results[k][0]:g} "
                                   f"w={results[k][1]:g}")
         pngs.append(str(pth))
+    dtm_path = out / "recommended_dtm.tif"
+    write_geotiff(dtm_path, results[best][4], spec, overwrite=True,
+                  tags=_tags("dtm-quality", src, {"res": r, **replace(base, g=results[best][0],
+                                                                          w=results[best][1]).as_dict()}),
+                  description="terrain height (m)")
     g_eq_minus_w = [(gg, ww) for (gg, ww, *_), lab in zip(results, labels) if abs(gg + ww) < 1e-9]
     in_good = [c for c in g_eq_minus_w if labels[combos.index(c)] == good]
     prog.update(1.0, "done")
     return {"output": str(csv_path), "dtms": len(results), "res": r,
             "selected_descriptors": [names[i] for i in sel],
-            "pc1_variance": float(var[0]), "clusters": [int((labels == c).sum()) for c in range(3)],
+            "pc1_variance": float(var[0]), "clusters": [int((labels == c).sum()) for c in sorted(roles)],
             "good_cluster": good, "roles": {str(c): r for c, r in roles.items()}, "recommended_g": results[best][0],
             "recommended_w": results[best][1], "g_equals_minus_w_in_good": f"{len(in_good)}/{len(g_eq_minus_w)}",
-            "pngs": pngs}
+            "pngs": pngs, "dtm": str(dtm_path)}
 
 
 # ---------------------------------------------------------------------------------------------
