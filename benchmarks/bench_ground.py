@@ -86,6 +86,7 @@ def isprs(pts):
     methods = {
         "default": lambda s, p: ours(p),
         "plain_robust_interpolation": lambda s, p: ours(p, KrausPfeifer(refine=0)),
+        "default_with_gshift": lambda s, p: ours(p, KrausPfeifer(gshift=True)),
         "csf_r1_res1": lambda s, p: csf_ground(p.x, p.y, p.z, 1.0, 1),
         "csf_r1_res1_low_removed": lambda s, p: csf_ground(p.x, p.y, p.z, 1.0, 1, low=True),
         "csf_r2_res1_low_removed": lambda s, p: csf_ground(p.x, p.y, p.z, 1.0, 2, low=True),

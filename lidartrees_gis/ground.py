@@ -202,13 +202,15 @@ def refine_cell(x, y) -> float:
 def lowest_per_cell(x, y, z, sel, res):
     """Mask of the lowest selected point in each ``res``-metre cell."""
     idx = np.nonzero(sel)[0]
+    m = np.zeros(x.size, bool)
+    if idx.size == 0:
+        return m
     spec = GridSpec.from_bounds(x.min(), y.min(), x.max(), y.max(), res)
     r, c = spec.cell_index(x[idx], y[idx])
     key = r * spec.width + c
     o = np.lexsort((z[idx], key))
     k = key[o]
     first = np.r_[True, k[1:] != k[:-1]]
-    m = np.zeros(x.size, bool)
     m[idx[o[first]]] = True
     return m
 
