@@ -117,6 +117,9 @@ def main(argv=None) -> int:
         ap.print_help(sys.stderr)
         return 2
     cmd = COMMANDS[args.command]
+    import logging
+
+    logging.getLogger("laspy").setLevel(logging.CRITICAL)  # read errors are reported as ours
     kw = {p.name: getattr(args, p.name) for p in cmd.params}
     as_json = bool(kw.pop("json", False))
     if args.progress_lines:

@@ -86,9 +86,9 @@ KP_PARAMS = (
           advanced=True, unit="m"),
     Param("levels", "float", "Hierarchy levels (cell x 2^(levels-1) down to cell); 1 = plain "
           "filter", flag="-levels", default=5, advanced=True),
-    Param("w_growth", "float", "At coarser levels w grows by this much per metre of cell (w + "
-          "k x cell), so the coarse surfaces keep hilltops", flag="-w_growth", default=0.1,
-          advanced=True),
+    Param("w_growth", "float", "At coarser levels w grows by this much per metre of cell "
+          "(w + k (c - cell)) so coarse surfaces keep hilltops and crests", flag="-w_growth",
+          default=0.2, advanced=True),
     Param("refine", "float", "Densification passes against the TIN of the ground points (stops "
           "when nothing changes); 0 = the plain robust-interpolation result", flag="-refine",
           default=10, advanced=True),
@@ -253,11 +253,10 @@ def _tiling(input, kw):
         return None, True
     p = Path(str(input))
     if p.suffix.lower() in (".las", ".laz") and p.exists():
-        try:
-            import laspy
+        from .io.points import las_point_count
 
-            with laspy.open(p) as r:
-                return None, int(r.header.point_count) > TILED_ABOVE
+        try:
+            return None, las_point_count(p) > TILED_ABOVE
         except Exception:  # noqa: BLE001 - the reader reports a broken file properly later
             return None, False
     return None, False

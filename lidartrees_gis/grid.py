@@ -108,6 +108,8 @@ def check_resolution(res) -> float:
         raise InputError(f"-tr: resolution must be a number or 'auto', got {res!r}") from None
     if not np.isfinite(r) or r <= 0:
         raise InputError(f"-tr: resolution must be > 0, got {res!r}")
+    if r < 1e-4:
+        raise InputError(f"-tr: resolution {res!r} m is below 0.1 mm; cells are in metres")
     return r
 
 

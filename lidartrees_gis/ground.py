@@ -12,9 +12,10 @@ The filter has two stages.
    hierarchically (Pfeifer et al. 2001): ``levels`` grids from ``cell * 2**(levels-1)`` down to
    ``cell``, ``iterations`` each, every level starting from the weights of the coarser one, so
    buildings and dense crowns are rejected at the coarse levels and terrain detail comes back at
-   the fine ones. At a coarser level of cell c the band is widened to w + ``w_growth`` (c - cell)
-   (0.1 m per metre: 2.25 m more at 24 m; the finest level uses w itself) so that the coarse
-   surfaces, which cannot follow hills, do not throw the hilltops away. Residual v = z - surface. Weights (seed 003, eq. 1)::
+   the fine ones. The coarsest cell (24 m by default) bounds the objects rejected (roofs of
+   35 x 30 m go); its surfaces cannot follow hills and sharp ridges, so at a coarser level of cell
+   c the band is widened to w + ``w_growth`` (c - cell), 0.2 m per metre (4.5 m more at 24 m; the
+   finest level uses w itself) and hilltops and crests are not thrown away. Residual v = z - surface. Weights (seed 003, eq. 1)::
 
        p = 1                          v <= g
        p = 1 / (1 + (a (v - g))^b)    g < v <= g + w
@@ -62,7 +63,7 @@ class KrausPfeifer:
     iterations: int = 5
     cell: float = 1.5
     levels: int = 5
-    w_growth: float = 0.1
+    w_growth: float = 0.2
     tolerance: float | None = None
     refine: int = 10
     slope: float = 1.25
@@ -259,6 +260,12 @@ def kraus_pfeifer(x, y, z, params: KrausPfeifer | None = None, progress=None):
     if x.size == 0:
         raise InputError("ground filter: no points")
     prog = as_progress(progress)
+    from .pipeline import check_sparse
+
+    b = (x.min(), y.min(), x.max(), y.max())
+    for res in (p.cell, refine_cell(x, y)):
+        check_sparse((b[2] - b[0] + res) * (b[3] - b[1] + res) / res ** 2, x.size, b, res,
+                     "ground filter")
     usable = ~low_points(x, y, z, p.low)
     if usable.sum() < 3:
         usable[:] = True

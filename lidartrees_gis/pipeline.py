@@ -97,7 +97,25 @@ def grid_spec_for(src: PointSource, res: float, progress=None) -> GridSpec:
             f"{w * h:.3g} cells (limit {MAX_CELLS:.0e}); check -tr, or the extent (a wrong digit "
             f"in a coordinate, or points far apart: x {b[0]:.2f}..{b[2]:.2f}, y {b[1]:.2f}.."
             f"{b[3]:.2f}); large areas are processed in tiles with -tile_size")
+    n = src.count_hint
+    check_sparse(w * h, n, b, res, src.path)
     return GridSpec.from_bounds(*b, res, crs=src.crs)
+
+
+#: more cells per point than this (on grids over a million cells) means points far apart
+MAX_CELLS_PER_POINT = 10_000
+
+
+def check_sparse(cells, n, bounds, res, path=""):
+    """Refuse a grid with far more cells than points (a wrong digit in one coordinate, or files
+    kilometres apart): it would take long to fill and mean nothing."""
+    if n and cells > 1_000_000 and cells / n > MAX_CELLS_PER_POINT:
+        b = bounds
+        raise InputError(
+            f"{path}: {n:,} points spread over {b[2] - b[0]:.0f} x {b[3] - b[1]:.0f} m "
+            f"(x {b[0]:.2f}..{b[2]:.2f}, y {b[1]:.2f}..{b[3]:.2f}) would need {cells:.3g} cells of "
+            f"{res:g} m, {cells / n:.0f} per point; check for a wrong digit in a coordinate or "
+            "points far from the others")
 
 
 @dataclass

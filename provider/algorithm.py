@@ -51,8 +51,9 @@ REFERENCES = {
     "compare": f"{CASTRO}, Table 1.",
     "evaluate": "Eysn, L. et al. (2015). A benchmark of lidar-based single tree detection methods "
                 "using heterogeneous forest data from the Alpine Space. Forests 6, 1721-1747.",
-    "ground": "Kraus, K. & Pfeifer, N. (1998) robust interpolation, as in FUSION's GroundFilter; "
-              "parameters for eucalyptus by Leite et al. (seed 003).",
+    "ground": "Kraus, K. & Pfeifer, N. (1998) robust interpolation, as in FUSION's GroundFilter, "
+              "hierarchical after Pfeifer, N. et al. (2001), then densification against a TIN "
+              "of the ground; (g, w) for eucalyptus by Leite et al. (seed 003).",
     "dtm-quality": "Leite et al. (seed 003): 77 (g, w) DTMs judged by GLCM texture, PCA and "
                    "k-means.",
     "stem": "Buck, A. L. B. et al. (2014), Dmax filter for trunk points of Pinus in TLS clouds "

@@ -25,10 +25,11 @@ def test_plane_keeps_its_ground():
     assert ground.mean() > 0.99
 
 
-def test_slope_with_a_building_keeps_ground_and_rejects_the_roof():
+@pytest.mark.parametrize("size", [(20, 15), (35, 30)])
+def test_slope_with_a_building_keeps_ground_and_rejects_the_roof(size):
     x, y, rng = _grid_points()
     z = 200 + 0.25 * x + rng.normal(0, 0.03, x.size)  # 25 % slope
-    roof = (x > 40) & (x < 75) & (y > 40) & (y < 70)  # 35 x 30 m building, 7 m high
+    roof = (x > 40) & (x < 40 + size[0]) & (y > 40) & (y < 40 + size[1])  # 7 m high
     z[roof] += 7
     ground, _ = kraus_pfeifer(x, y, z)
     e = filter_errors(ground, ~roof)
@@ -42,7 +43,15 @@ def test_steep_ridge_keeps_its_ground():
     z = 330 - 0.9 * np.sqrt((x - 60) ** 2 + 10 ** 2) + rng.normal(0, 0.03, x.size)
     ground, _ = kraus_pfeifer(x, y, z)
     assert ground.mean() > 0.95
-    assert ground[np.abs(x - 60) > 5].mean() > 0.99  # the flanks, right up to the crest zone
+    assert ground[np.abs(x - 60) > 10].mean() > 0.99  # the flanks
+
+
+def test_sharp_ridge_keeps_most_of_its_ground():
+    x, y, rng = _grid_points()
+    z = 330 - 0.58 * np.abs(x - 60) + rng.normal(0, 0.03, x.size)  # 30° flanks, knife-edge crest
+    ground, _ = kraus_pfeifer(x, y, z)
+    assert ground.mean() > 0.97
+    assert ground[np.abs(x - 60) > 10].mean() > 0.99
 
 
 def test_hill_keeps_its_ground():

@@ -74,10 +74,11 @@ def test_absurd_grids_are_refused_with_the_extent(tmp_path, capsys):
     f = tmp_path / "far.las"
     write_points(f, [500_000.0, 544_000.0, 500_010.0], [7_000_000.0, 7_000_005.0, 7_000_010.0],
                  [10.0, 11.0, 12.0], crs=CRS.from_epsg(31984))
-    for tr in ("0.001", "5e-324"):
-        assert main(["grid", str(f), str(tmp_path / "g.tif"), "-tr", tr, "-q"]) == 1
-        err = capsys.readouterr().err
-        assert "cells" in err and "44000 x 10 m" in err
+    assert main(["grid", str(f), str(tmp_path / "g.tif"), "-tr", "0.001", "-q"]) == 1
+    err = capsys.readouterr().err
+    assert "cells" in err and "44000 x 10 m" in err
+    assert main(["grid", str(f), str(tmp_path / "g.tif"), "-tr", "5e-324", "-q"]) == 1
+    assert "-tr: resolution '5e-324' m is below 0.1 mm" in capsys.readouterr().err
     assert not (tmp_path / "g.tif").exists()
 
 
@@ -85,3 +86,64 @@ def test_output_equal_to_input_is_refused(small_las, capsys):
     before = small_las.read_bytes()
     assert main(["grid", str(small_las), str(small_las), "-overwrite", "-q"]) == 1
     assert "also an input" in capsys.readouterr().err and small_las.read_bytes() == before
+
+
+def _one_error_line(capsys, *must):
+    err = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+    assert len(err) == 1 and err[0].startswith("lidartrees") and "Traceback" not in err[0], err
+    for m in must:
+        assert m in err[0], err[0]
+    return err[0]
+
+
+def _patched(src, dst, offset, fmt, value):
+    import struct
+
+    b = bytearray(src.read_bytes())
+    struct.pack_into(fmt, b, offset, value)
+    dst.write_bytes(bytes(b))
+    return dst
+
+
+@pytest.mark.parametrize("name, offset, fmt, value, expect", [
+    ("scale.las", 131, "<d", 1e300, "impossible scale"),
+    ("offset.las", 155 + 8, "<d", 1e300, "impossible offset"),
+    ("count.las", 247, "<Q", 2 ** 31, "2,147,483,648 points"),
+    ("vlrs.las", 100, "<I", 2 ** 31, "VLRs"),
+])
+def test_impossible_las_headers_are_refused(small_las, tmp_path, capsys, name, offset, fmt, value,
+                                            expect):
+    f = _patched(small_las, tmp_path / name, offset, fmt, value)
+    assert main(["grid", str(f), str(tmp_path / "o.tif"), "-tr", "1", "-q"]) == 1
+    _one_error_line(capsys, expect, str(f))
+    assert not (tmp_path / "o.tif").exists()
+
+
+def test_truncated_laz_and_corrupt_gzip_are_one_line_errors(small_las, tmp_path, capsys):
+    import gzip
+
+    import laspy
+
+    laz = tmp_path / "t.laz"
+    laspy.read(str(small_las)).write(str(laz))
+    cut = tmp_path / "cut.laz"
+    cut.write_bytes(laz.read_bytes()[: laz.stat().st_size * 2 // 3])
+    assert main(["grid", str(cut), str(tmp_path / "o.tif"), "-tr", "1", "-q"]) == 1
+    _one_error_line(capsys, "truncated or corrupt")
+    gz = tmp_path / "p.xyz.gz"
+    raw = gzip.compress(b"X\tY\tZ\n" + b"500000.0\t7500000.0\t600.0\n" * 2000)
+    gz.write_bytes(raw[: len(raw) // 2])
+    assert main(["info", str(gz), "-q"]) == 1
+    _one_error_line(capsys, "truncated or corrupt")
+
+
+def test_tiny_resolution_and_a_wrong_digit_are_refused(tmp_path, capsys):
+    f = tmp_path / "p.xyz"
+    rows = [f"{500000 + i % 30}.5\t{7500000 + i // 30}.5\t600\n" for i in range(300)]
+    rows[7] = "500007.5\t5500000.5\t600\n"  # a 7 became a 5: 2,000 km away
+    f.write_text("X\tY\tZ\n" + "".join(rows))
+    assert main(["grid", str(f), str(tmp_path / "a.tif"), "-tr", "5e-324", "-q"]) == 1
+    _one_error_line(capsys, "-tr")
+    assert main(["chm", str(f), str(tmp_path / "b.tif"), "-tr", "1", "-q", "-a_srs",
+                 "EPSG:31983"]) == 1
+    _one_error_line(capsys, "wrong digit", "5500000.50")

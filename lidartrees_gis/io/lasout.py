@@ -41,8 +41,19 @@ def write_classified(path, src, classification, *, overwrite=False, extra=None) 
         arr = np.asarray(arr)
         las.add_extra_dim(laspy.ExtraBytesParams(name=name, type=arr.dtype))
         setattr(las, name, arr)
+    from .. import __version__
+
+    las.header.generating_software = f"lidartrees_gis {__version__}"[:32]
+    sysid = las.header.system_identifier
+    if isinstance(sysid, bytes):
+        sysid = sysid.decode("latin-1")
+    las.header.system_identifier = str(sysid or "").encode("ascii", "ignore").decode()[:32]
     with atomic_output(p, overwrite) as tmp:
-        las.write(str(tmp))
+        try:
+            las.write(str(tmp))
+        except UnicodeError as exc:  # text in a VLR of the input that LAS cannot hold
+            raise InputError(f"{src.path}: a header text of the input cannot be written to "
+                             f"LAS ({exc})") from None
 
 
 def write_points(path, x, y, z, *, crs=None, classification=None, extra=None, overwrite=False):

@@ -9,6 +9,7 @@ from __future__ import annotations
 import gzip
 import io
 import re
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterator
@@ -16,7 +17,7 @@ from typing import Iterator
 import numpy as np
 
 from ..crs import Reprojection, crs_from_sidecar, parse_crs, reprojection
-from ..errors import CRSError, InputError, ReadError
+from ..errors import CRSError, InputError, LidarTreesError, ReadError
 from ..progress import as_progress, check_cancel
 
 LAS_SUFFIXES = (".las", ".laz")
@@ -182,14 +183,18 @@ def sniff_xyz(path, *, delimiter=None, decimal_comma=None, header=None, columns=
     """
     path = Path(path)
     lines = []
-    with _open_text(path) as fh:
-        for line in fh:
-            s = line.strip()
-            if not s or s.startswith("#"):
-                continue
-            lines.append(s)
-            if len(lines) >= sample_lines:
-                break
+    try:
+        with _open_text(path) as fh:
+            for line in fh:
+                s = line.strip()
+                if not s or s.startswith("#"):
+                    continue
+                lines.append(s)
+                if len(lines) >= sample_lines:
+                    break
+    except (EOFError, OSError, zlib.error, UnicodeError) as exc:
+        raise ReadError(f"{path}: cannot read the text, the file is truncated or corrupt "
+                        f"({type(exc).__name__}: {str(exc)[:120]})") from None
     if not lines:
         raise InputError(f"{path}: no points (the file is empty or holds only comments)")
     if delimiter is not None:
@@ -365,11 +370,24 @@ class PointSource:
                     done += len(pts)
                     prog.update(done / total, "reading points")
                     yield chunk
-        except (laspy.errors.LaspyException, ValueError) as exc:
-            raise ReadError(f"{self.path}: cannot read LAS/LAZ ({exc})") from None
+        except LidarTreesError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - laspy, lazrs, struct, EOF: a broken file
+            kind = "LAZ" if self.path.suffix.lower() == ".laz" else "LAS"
+            raise ReadError(f"{self.path}: cannot read {kind} points, the file is truncated or "
+                            f"corrupt ({type(exc).__name__}: {str(exc)[:120]})") from None
 
     # -- XYZ ---------------------------------------------------------------------------------
     def _xyz_chunks(self, progress):
+        try:
+            yield from self._xyz_chunks_raw(progress)
+        except LidarTreesError:
+            raise
+        except (EOFError, OSError, zlib.error, UnicodeError) as exc:
+            raise ReadError(f"{self.path}: cannot read the text, the file is truncated or "
+                            f"corrupt ({type(exc).__name__}: {str(exc)[:120]})") from None
+
+    def _xyz_chunks_raw(self, progress):
         prog = as_progress(progress)
         d = self.dialect
         usecols = [i for i, c in enumerate(d.columns) if c is not None]
@@ -455,6 +473,73 @@ class PointSource:
         return np.asarray(rows, dtype=np.float64).reshape(-1, len(usecols))
 
 
+def _check_las_raw(path):
+    """Check the fixed LAS header fields that tell the reader how much to read (signature,
+    version, header size, VLR and EVLR counts) before laspy trusts them."""
+    import struct
+
+    size = path.stat().st_size
+    with open(path, "rb") as fh:
+        b = fh.read(375)
+    if len(b) < 227 or b[:4] != b"LASF":
+        raise ReadError(f"{path}: not a LAS/LAZ file (no LASF signature, or shorter than a header)")
+    major, minor = b[24], b[25]
+    if major != 1 or minor > 4:
+        raise ReadError(f"{path}: LAS version {major}.{minor} is not LAS 1.0-1.4")
+    hsize, = struct.unpack_from("<H", b, 94)
+    offset, nvlr = struct.unpack_from("<II", b, 96)
+    if hsize < 227 or hsize > offset or offset > size:
+        raise ReadError(f"{path}: the LAS header is corrupt (header size {hsize}, point data at "
+                        f"byte {offset}, file of {size} bytes)")
+    if nvlr * 54 > offset - hsize:
+        raise ReadError(f"{path}: the LAS header lists {nvlr:,} VLRs, more than fit before the "
+                        f"point data (byte {offset}); the header is corrupt")
+    if minor >= 4 and len(b) >= 255:
+        start, nevlr = struct.unpack_from("<QI", b, 235)
+        if nevlr and (start > size or nevlr * 60 > size - start):
+            raise ReadError(f"{path}: the LAS header lists {nevlr:,} extended VLRs from byte "
+                            f"{start}, beyond the {size}-byte file; the header is corrupt")
+
+
+def las_point_count(path) -> int:
+    """Point count from a LAS/LAZ header, after :func:`_check_las_raw`."""
+    import struct
+
+    path = Path(path)
+    _check_las_raw(path)
+    with open(path, "rb") as fh:
+        b = fh.read(255)
+    legacy, = struct.unpack_from("<I", b, 107)
+    if b[25] >= 4 and len(b) >= 255:
+        n, = struct.unpack_from("<Q", b, 247)
+        return int(n or legacy)
+    return int(legacy)
+
+
+def _check_las_header(path, h, count):
+    """Refuse a LAS/LAZ header whose scale, offset, bounds or point count cannot be true."""
+    import math
+
+    size = path.stat().st_size
+    scales, offsets = [float(v) for v in h.scales], [float(v) for v in h.offsets]
+    if not all(math.isfinite(v) and 1e-9 <= abs(v) <= 1e3 for v in scales):
+        raise ReadError(f"{path}: the LAS header has an impossible scale {scales}")
+    if not all(math.isfinite(v) and abs(v) <= 1e12 for v in offsets):
+        raise ReadError(f"{path}: the LAS header has an impossible offset {offsets}")
+    mins, maxs = [float(v) for v in h.mins], [float(v) for v in h.maxs]
+    if not all(math.isfinite(v) and abs(v) <= 1e12 for v in mins + maxs):
+        raise ReadError(f"{path}: the LAS header has impossible bounds {mins} .. {maxs}")
+    rec = int(h.point_format.size)
+    if path.suffix.lower() == ".las":
+        need = int(h.offset_to_point_data) + count * rec
+        if need > size:
+            raise ReadError(f"{path}: the header says {count:,} points ({need:,} bytes) but the "
+                            f"file has {size:,} bytes; it is truncated or the header is wrong")
+    elif count > 100 * size:  # LAZ: no point takes less than a bit or so
+        raise ReadError(f"{path}: the header says {count:,} points, impossible in a "
+                        f"{size:,}-byte LAZ file; the header is wrong")
+
+
 def open_points(path, *, a_srs=None, t_srs=None, delimiter=None, decimal_comma=None,
                 header=None, columns=None, skip_invalid=False, chunk_size=DEFAULT_CHUNK,
                 require_crs=False) -> PointSource:
@@ -490,6 +575,7 @@ def open_points(path, *, a_srs=None, t_srs=None, delimiter=None, decimal_comma=N
     if path.suffix.lower() in LAS_SUFFIXES:
         import laspy
 
+        _check_las_raw(path)
         try:
             with laspy.open(path) as reader:
                 h = reader.header
@@ -509,6 +595,7 @@ def open_points(path, *, a_srs=None, t_srs=None, delimiter=None, decimal_comma=N
             raise ReadError(f"{path}: cannot open as LAS/LAZ ({exc})") from None
         if info["count"] == 0:
             raise InputError(f"{path}: the LAS header says the file holds no points")
+        _check_las_header(path, h, info["count"])
         src = PointSource(path, "las", crs or file_crs, chunk_size=chunk_size, header_info=info)
     else:
         dialect = sniff_xyz(path, delimiter=delimiter, decimal_comma=decimal_comma, header=header,
