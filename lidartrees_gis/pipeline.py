@@ -267,6 +267,17 @@ def compute_surfaces(src: PointSource, res, *, dtm="auto", fill="mean8", chm="ma
     else:  # file
         arr, dspec, _ = read_raster(method.path)
         dtm_arr = resample_to(arr, dspec, spec)
+        has = np.isfinite(dsm_raw)
+        miss = int((has & ~np.isfinite(dtm_arr)).sum())
+        if miss > 0.01 * max(int(has.sum()), 1):
+            b, db = spec.bounds, dspec.bounds
+            raise InputError(
+                f"-dtm {method.path}: the DTM does not cover the points ({miss:,} of "
+                f"{int(has.sum()):,} cells with points have no terrain height; DTM x "
+                f"{db[0]:.1f}..{db[2]:.1f}, y {db[1]:.1f}..{db[3]:.1f}; points x {b[0]:.1f}.."
+                f"{b[2]:.1f}, y {b[1]:.1f}..{b[3]:.1f}); give a DTM of the whole area or -dtm auto")
+        if miss:  # a few edge cells: the nearest terrain height
+            dtm_arr = fill_gaps(dtm_arr, "mean8")
     check_cancel(prog)
     chm_raw = dsm_raw - dtm_arr
     out_cells = np.zeros(spec.shape, bool)

@@ -360,9 +360,16 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
     with contextlib.ExitStack() as stack:
         tmp = stack.enter_context(atomic_output(output, overwrite=True))
         existing = set()
-        if append and out_path.exists():
-            shutil.copyfile(out_path, tmp)
-            existing = {name for name, _ in pyogrio.list_layers(tmp)}
+        if out_path.exists():  # -append adds; -overwrite replaces only our layers (as ogr2ogr)
+            try:
+                layers = {name for name, _ in pyogrio.list_layers(out_path)}
+            except Exception:  # noqa: BLE001 - not a GeoPackage: replaced
+                if append:
+                    raise InputError(f"{out_path}: -append: the file is not a GeoPackage") from None
+                layers = None
+            if layers is not None:
+                shutil.copyfile(out_path, tmp)
+                existing = layers if append else set()
         created = set()
 
         def put(df, layer, geometry_type=None):

@@ -122,6 +122,25 @@ def test_external_dtm_geotiff_on_same_grid_gives_same_chm(tmp_path, seed_xyz):
     assert main(["chm", str(seed_xyz), str(tmp_path / "c.tif"), "-dtm", "nope.tif", *common]) == 1
 
 
+def test_external_dtm_that_does_not_cover_the_points_is_an_error(tmp_path, seed_xyz, capsys):
+    dtm, half = tmp_path / "dtm.tif", tmp_path / "half.tif"
+    common = ["-tr", "1", "-a_srs", "EPSG:29194", "-q"]
+    assert main(["chm", str(seed_xyz), str(tmp_path / "a.tif"), "-dtm", "lowest:5", "-dtm_out",
+                 str(dtm), *common]) == 0
+    with rasterio.open(dtm) as ds:  # keep the western half only
+        prof, arr = ds.profile, ds.read(1)
+        w = ds.width // 2
+        prof.update(width=w)
+        with rasterio.open(half, "w", **prof) as out:
+            out.write(arr[:, :w], 1)
+    capsys.readouterr()
+    out = tmp_path / "c.tif"
+    assert main(["chm", str(seed_xyz), str(out), "-dtm", str(half), *common]) == 1
+    err = capsys.readouterr().err
+    assert "does not cover the points" in err and str(half) in err
+    assert not out.exists()
+
+
 def test_progress_lines_and_result_json_for_driving_programs(tmp_path, seed_xyz, capfd):
     res = tmp_path / "r.json"
     assert main(["grid", str(seed_xyz), str(tmp_path / "g.tif"), "-tr", "1", "-a_srs",

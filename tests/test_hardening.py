@@ -147,3 +147,28 @@ def test_tiny_resolution_and_a_wrong_digit_are_refused(tmp_path, capsys):
     assert main(["chm", str(f), str(tmp_path / "b.tif"), "-tr", "1", "-q", "-a_srs",
                  "EPSG:31983"]) == 1
     _one_error_line(capsys, "wrong digit", "5500000.50")
+
+
+@pytest.mark.parametrize("tiles", [[], ["-tile_size", "40", "-workers", "1"]])
+def test_overwrite_replaces_only_the_layers_written(tmp_path, tiles):
+    import geopandas as gpd
+    import pyogrio
+    import shapely
+
+    from lidartrees_gis.synthetic import make_stand, write_xyz_seed_dialect
+
+    pts, _ = make_stand()
+    f = tmp_path / "stand.xyz"
+    write_xyz_seed_dialect(f, pts)
+    out = tmp_path / "trees.gpkg"
+    mine = gpd.GeoDataFrame({"note": ["field plot"]}, geometry=[shapely.Point(412310, 7952410)],
+                            crs="EPSG:29194")
+    pyogrio.write_dataframe(mine, out, layer="plots")
+    pyogrio.write_dataframe(mine, out, layer="tree_tops")  # stale: must be replaced
+    assert main(["trees", str(f), str(out), "-q", *tiles]) == 1  # exists, no -overwrite
+    assert main(["trees", str(f), str(out), "-overwrite", "-q", *tiles]) == 0
+    layers = {name for name, _ in pyogrio.list_layers(out)}
+    assert {"plots", "tree_tops", "crowns", "summary"} <= layers
+    assert pyogrio.read_dataframe(out, layer="plots")["note"].tolist() == ["field plot"]
+    tops = pyogrio.read_dataframe(out, layer="tree_tops")
+    assert len(tops) > 100 and "note" not in tops.columns

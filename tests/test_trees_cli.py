@@ -67,6 +67,10 @@ def test_existing_gpkg_refused_then_append_and_nln(mixed, tmp_path):
                  "-nln", "b_"]) == 0
     layers = {name for name, _ in pyogrio.list_layers(o2)}
     assert {"tree_tops", "crowns", "summary", "b_tree_tops", "b_crowns", "b_summary"} <= layers
+    # the same trees appended to the same layers again: refused, the file unchanged
+    n2 = len(gpd.read_file(o2, layer="tree_tops"))
+    assert main(["trees", str(f), str(o2), "-tr", "0.5", "-smooth", "gauss5", "-q", "-append"]) == 1
+    assert len(gpd.read_file(o2, layer="tree_tops")) == n2
 
 
 def test_mixedconifer_count_agrees_with_lidr_segmentation(tmp_path, data):

@@ -14,7 +14,8 @@ def write_gpkg(path, layers: dict, *, overwrite=False, append=False, layer_optio
     """Write several layers (name -> GeoDataFrame or DataFrame) to one GeoPackage.
 
     ``append`` adds the layers to an existing file (features appended to same-named layers);
-    ``overwrite`` replaces the file. Work happens on a temporary copy renamed at the end.
+    ``overwrite`` replaces the layers written and keeps the file's other layers (as ogr2ogr
+    -overwrite). Work happens on a temporary copy renamed at the end.
     """
     import pyogrio
 
@@ -24,10 +25,29 @@ def write_gpkg(path, layers: dict, *, overwrite=False, append=False, layer_optio
     if p.exists() and not (overwrite or append):
         raise OutputExistsError(f"{p}: output exists; use -overwrite to replace it or -append")
     existing = set()
-    if append and p.exists():
-        existing = {name for name, _ in pyogrio.list_layers(p)}
+    keep = False  # copy the existing file: -append, or -overwrite of some layers (as ogr2ogr)
+    if p.exists():
+        try:
+            names = {name for name, _ in pyogrio.list_layers(p)}
+            keep = True
+        except Exception:  # noqa: BLE001 - not a GeoPackage: -overwrite replaces the file
+            if append:
+                raise InputError(f"{p}: -append: the file is not a GeoPackage") from None
+            names = set()
+        if append:
+            existing = names
+    for name, df in layers.items():  # -append of the same trees twice (e.g. the same tile)
+        if name in existing and "tree_id" in getattr(df, "columns", ()) and len(df):
+            old = pyogrio.read_dataframe(p, layer=name, columns=["tree_id"], read_geometry=False)
+            if "tree_id" in old.columns:
+                dup = len(set(old["tree_id"].tolist()) & set(df["tree_id"].tolist()))
+                if dup:
+                    raise OutputExistsError(
+                        f"{p}: -append: layer {name} already holds {dup:,} of these "
+                        f"{len(df):,} trees (same tree_id: the same area twice?); use -overwrite "
+                        "to replace the layers, or append other areas only")
     with atomic_output(p, overwrite=True) as tmp:
-        if append and p.exists():
+        if keep:
             shutil.copyfile(p, tmp)
         meta = {k: (v if isinstance(v, str) else json.dumps(v, default=str))
                 for k, v in (metadata or {}).items()}
