@@ -73,6 +73,10 @@ CO = Param("creation_options", "kv", "GDAL creation option KEY=VALUE for GeoTIFF
 OVERWRITE = Param("overwrite", "bool", "Replace existing outputs", flag="-overwrite",
                   aliases=("--overwrite",), default=False)
 READ = (A_SRS, T_SRS, DELIM, DECIMAL_COMMA, COLUMNS, SKIP_INVALID)
+ALLOW_NO_CRS = Param("allow_no_crs", "bool", "Write outputs without a CRS when the input has "
+                     "none (default: refused; give -a_srs)", flag="--allow-no-crs", default=False,
+                     advanced=True)
+READ_GEO = (*READ, ALLOW_NO_CRS)
 KP_PARAMS = (
     Param("g", "float", "Kraus & Pfeifer g: residuals at or below g get weight 1", flag="-g",
           default=-2.0, unit="m"),
@@ -151,7 +155,10 @@ def _info(input, **kw):
 
 def _read_kw(kw):
     keys = ("a_srs", "t_srs", "delimiter", "decimal_comma", "columns", "skip_invalid")
-    return {k: kw[k] for k in keys if kw.get(k) is not None}
+    out = {k: kw[k] for k in keys if kw.get(k) is not None}
+    if "allow_no_crs" in kw:  # commands whose outputs are georeferenced
+        out["require_crs"] = not kw.get("allow_no_crs")
+    return out
 
 
 def _co(kw):
@@ -427,14 +434,14 @@ COMMANDS = {
          Param("stat", "choice", "Per-cell statistic of z", flag="-stat",
                choices=("max", "min", "mean", "count"), default="max"),
          Param("fill", "choice", FILL.help, flag="-fill", choices=("mean8", "none"), default="none"),
-         *CLASSES, *READ, CO, OVERWRITE), _grid, outputs=("output",)),
+         *CLASSES, *READ_GEO, CO, OVERWRITE), _grid, outputs=("output",)),
     "chm": Command(
         "chm", "Rasters", "Canopy height model CHM = DSM (highest point per cell) - DTM",
         (INPUT, Param("output", "output", "Output CHM GeoTIFF"), CHM_RES, DTM_AUTO, CHM_KIND,
          FILL, *CLASSES, KEEP_OUTLIERS, *TILES,
          Param("dsm_out", "output", "Also write the DSM here", flag="-dsm_out", advanced=True),
          Param("dtm_out", "output", "Also write the DTM here", flag="-dtm_out", advanced=True),
-         *READ, CO, OVERWRITE), _chm, outputs=("output", "dsm_out", "dtm_out")),
+         *READ_GEO, CO, OVERWRITE), _chm, outputs=("output", "dsm_out", "dtm_out")),
     "trees": Command(
         "trees", "Trees", "Tree tops, crowns and a stand summary (GeoPackage) from points or a CHM",
         (Param("input", "input", "Point file (LAS/LAZ, XYZ) or a CHM GeoTIFF"),
@@ -495,7 +502,7 @@ COMMANDS = {
                flag="-png", advanced=True),
          Param("csv", "output", "Also write a CSV in TreeX's layout", flag="-csv", advanced=True),
          Param("chm_out", "output", "Also write the CHM GeoTIFF", flag="-chm_out", advanced=True),
-         *READ, OVERWRITE,
+         *READ_GEO, OVERWRITE,
          Param("append", "bool", "Append to an existing GeoPackage", flag="-append",
                default=False, advanced=True)), _trees, outputs=("output", "png", "csv", "chm_out")),
     "compare": Command(
@@ -516,7 +523,7 @@ COMMANDS = {
          *CLASSES,
          Param("fill", "choice", FILL.help, flag="-fill", choices=("mean8", "none"),
                default="mean8", advanced=True),
-         *READ, OVERWRITE), _compare, outputs=("output",)),
+         *READ_GEO, OVERWRITE), _compare, outputs=("output",)),
     "ground": Command(
         "ground", "Ground", "Ground points by Kraus & Pfeifer hierarchical robust interpolation "
         "(seed 003) and TIN densification, classified LAS/LAZ and DTM",
@@ -529,7 +536,7 @@ COMMANDS = {
          Param("reclassify", "bool", "Also give the filter's decision to points of other classes "
                "(water, buildings...); by default only classes 0, 1, 2 change", flag="-reclassify",
                default=False, advanced=True),
-         *READ, CO, OVERWRITE), _ground, outputs=("output", "dtm_out")),
+         *READ_GEO, CO, OVERWRITE), _ground, outputs=("output", "dtm_out")),
     "dtm-quality": Command(
         "dtm-quality", "Ground", "DTM quality sweep of seed 003: Kraus & Pfeifer (g, w) grid, "
         "GLCM texture, PCA, k-means",
@@ -543,7 +550,7 @@ COMMANDS = {
                aliases=("--resolution",), default="auto", unit="m"),
          *[p for p in KP_PARAMS if p.name not in ("g", "w", "tolerance")],
          Param("seed", "float", "k-means random seed", flag="-seed", default=0, advanced=True),
-         *READ, OVERWRITE), _dtm_quality),
+         *READ_GEO, OVERWRITE), _dtm_quality),
     "stem": Command(
         "stem", "Terrestrial", "Trunk points, DBH and taper of one tree by the Dmax filter "
         "(Buck et al. 2014, seed 004)",

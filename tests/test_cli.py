@@ -103,12 +103,14 @@ def test_one_point_and_coincident_points(tmp_path):
     p = tmp_path / "one.xyz"
     p.write_text("10.2 20.3 5.0\n")
     out = tmp_path / "one.tif"
-    assert main(["grid", str(p), str(out), "-tr", "1", "-q"]) == 0
+    assert main(["grid", str(p), str(out), "-tr", "1", "-q"]) == 1  # no CRS: refused
+    assert main(["grid", str(p), str(out), "-tr", "1", "-q", "--allow-no-crs"]) == 0
     with rasterio.open(out) as ds:
         assert ds.shape == (1, 1) and ds.read(1)[0, 0] == 5.0
     q = tmp_path / "same.xyz"
     q.write_text("1 1 1\n1 1 2\n")
-    assert main(["grid", str(q), str(tmp_path / "s.tif"), "-tr", "auto", "-q"]) == 1
+    assert main(["grid", str(q), str(tmp_path / "s.tif"), "-tr", "auto", "-q",
+                 "--allow-no-crs"]) == 1
     assert not (tmp_path / "s.tif").exists()
 
 

@@ -137,12 +137,27 @@ def test_truncated_laz_and_corrupt_gzip_are_one_line_errors(small_las, tmp_path,
     _one_error_line(capsys, "truncated or corrupt")
 
 
+def test_output_without_crs_is_refused_unless_allowed(tmp_path, capsys):
+    f = tmp_path / "p.xyz"
+    f.write_text("X\tY\tZ\n" + "".join(f"{500000 + i % 20}.5\t{7500000 + i // 20}.5\t600\n"
+                                         for i in range(400)))
+    out = tmp_path / "g.tif"
+    assert main(["grid", str(f), str(out), "-tr", "1", "-q"]) == 1
+    _one_error_line(capsys, "no CRS", "-a_srs", "--allow-no-crs")
+    assert not out.exists()
+    assert main(["grid", str(f), str(out), "-tr", "1", "-q", "--allow-no-crs"]) == 0
+    with rasterio.open(out) as ds:
+        assert ds.crs is None and ds.shape == (20, 20)
+    assert main(["info", str(f), "-q"]) == 0  # info writes nothing georeferenced
+
+
 def test_tiny_resolution_and_a_wrong_digit_are_refused(tmp_path, capsys):
     f = tmp_path / "p.xyz"
     rows = [f"{500000 + i % 30}.5\t{7500000 + i // 30}.5\t600\n" for i in range(300)]
     rows[7] = "500007.5\t5500000.5\t600\n"  # a 7 became a 5: 2,000 km away
     f.write_text("X\tY\tZ\n" + "".join(rows))
-    assert main(["grid", str(f), str(tmp_path / "a.tif"), "-tr", "5e-324", "-q"]) == 1
+    assert main(["grid", str(f), str(tmp_path / "a.tif"), "-tr", "5e-324", "-q", "-a_srs",
+                 "EPSG:31983"]) == 1
     _one_error_line(capsys, "-tr")
     assert main(["chm", str(f), str(tmp_path / "b.tif"), "-tr", "1", "-q", "-a_srs",
                  "EPSG:31983"]) == 1
@@ -165,8 +180,9 @@ def test_overwrite_replaces_only_the_layers_written(tmp_path, tiles):
                             crs="EPSG:29194")
     pyogrio.write_dataframe(mine, out, layer="plots")
     pyogrio.write_dataframe(mine, out, layer="tree_tops")  # stale: must be replaced
-    assert main(["trees", str(f), str(out), "-q", *tiles]) == 1  # exists, no -overwrite
-    assert main(["trees", str(f), str(out), "-overwrite", "-q", *tiles]) == 0
+    crs = ["-a_srs", "EPSG:29194"]
+    assert main(["trees", str(f), str(out), "-q", *crs, *tiles]) == 1  # exists, no -overwrite
+    assert main(["trees", str(f), str(out), "-overwrite", "-q", *crs, *tiles]) == 0
     layers = {name for name, _ in pyogrio.list_layers(out)}
     assert {"plots", "tree_tops", "crowns", "summary"} <= layers
     assert pyogrio.read_dataframe(out, layer="plots")["note"].tolist() == ["field plot"]

@@ -608,6 +608,7 @@ def open_points(path, *, a_srs=None, t_srs=None, delimiter=None, decimal_comma=N
                            "(e.g. -a_srs EPSG:29194)")
         src.repro = reprojection(src.src_crs, t_srs)
     if require_crs and src.crs is None:
-        raise CRSError(f"{path}: no CRS in the file; give one with -a_srs (e.g. -a_srs EPSG:29194 "
-                       "or -a_srs 'SAD69 24K') or put a .prj file beside it")
+        raise CRSError(f"{path}: no CRS in the file, the outputs would not be georeferenced; give "
+                       "one with -a_srs (e.g. -a_srs EPSG:29194 or -a_srs 'SAD69 24K'), put a .prj "
+                       "file beside it, or write without a CRS with --allow-no-crs")
     return src
