@@ -127,6 +127,16 @@ def main(argv=None) -> int:
     else:
         progress = NullProgress() if args.quiet else TqdmProgress(desc=cmd.name)
     _terminate_as_interrupt()
+    import warnings
+
+    from .errors import DataWarning
+
+    def _show(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, DataWarning):
+            print(f"lidartrees {cmd.name}: warning: {message}", file=sys.stderr)
+
+    warnings.showwarning = _show
+    warnings.simplefilter("default", DataWarning)
     try:
         res = cmd.run(**kw, progress=progress)
     except Cancelled:

@@ -28,3 +28,8 @@ class OutputExistsError(LidarTreesError, FileExistsError):
 
 class Cancelled(LidarTreesError):
     """The user cancelled the operation."""
+
+
+class DataWarning(UserWarning):
+    """Something in the input was odd but the run went on (points outside the header bounds,
+    a point count that does not match the file); the CLI prints it as one line."""

@@ -188,3 +188,23 @@ def test_overwrite_replaces_only_the_layers_written(tmp_path, tiles):
     assert pyogrio.read_dataframe(out, layer="plots")["note"].tolist() == ["field plot"]
     tops = pyogrio.read_dataframe(out, layer="tree_tops")
     assert len(tops) > 100 and "note" not in tops.columns
+
+
+def test_stale_las_header_bounds_and_counts_are_warned(small_las, tmp_path, capsys):
+    import struct
+
+    f = _patched(small_las, tmp_path / "bounds.las", 179, "<d", 500_020.0)  # max x too small
+    assert main(["grid", str(f), str(tmp_path / "a.tif"), "-tr", "1", "-q"]) == 0
+    err = capsys.readouterr().err
+    warn = [ln for ln in err.splitlines() if ": warning: " in ln]
+    assert len(warn) == 1 and "outside the bounds the LAS header states" in warn[0]
+    n = int(warn[0].split(" of ")[0].rsplit(" ", 1)[1].replace(",", ""))
+    assert 1500 < n < 2500  # about half of the 4000 points lie beyond x = 500020
+    b = bytearray(small_las.read_bytes())
+    struct.pack_into("<I", b, 107, 3000)
+    struct.pack_into("<Q", b, 247, 3000)
+    g = tmp_path / "count.las"
+    g.write_bytes(bytes(b))
+    assert main(["info", str(g), "-q"]) == 0
+    err = capsys.readouterr().err
+    assert "holds 4,000 point records but the header says 3,000" in err

@@ -347,6 +347,7 @@ class PointSource:
 
         prog = as_progress(progress)
         try:
+            out_hdr = 0
             with laspy.open(self.path) as reader:
                 total = max(int(reader.header.point_count), 1)
                 done = 0
@@ -363,6 +364,13 @@ class PointSource:
                         np.asarray(pts.number_of_returns, dtype=np.uint8),
                         np.asarray(pts.intensity, dtype=np.uint16) if "intensity" in dims else None,
                     )
+                    hb = self.header_info.get("bounds")
+                    if hb is not None:
+                        zr = self.header_info.get("zrange", (-np.inf, np.inf))
+                        tol = 0.01
+                        out_hdr += int(((x < hb[0] - tol) | (x > hb[2] + tol) | (y < hb[1] - tol)
+                                        | (y > hb[3] + tol) | (z < zr[0] - tol)
+                                        | (z > zr[1] + tol)).sum())
                     bad = ~(np.isfinite(x) & np.isfinite(y) & np.isfinite(z))
                     if bad.any():
                         chunk = chunk.subset(~bad)
@@ -370,6 +378,14 @@ class PointSource:
                     done += len(pts)
                     prog.update(done / total, "reading points")
                     yield chunk
+            if out_hdr:
+                import warnings
+
+                from ..errors import DataWarning
+
+                warnings.warn(DataWarning(
+                    f"{self.path}: {out_hdr:,} of {done:,} points lie outside the bounds the LAS "
+                    "header states; the header is stale (the points were used)"), stacklevel=2)
         except LidarTreesError:
             raise
         except Exception as exc:  # noqa: BLE001 - laspy, lazrs, struct, EOF: a broken file
@@ -535,6 +551,17 @@ def _check_las_header(path, h, count):
         if need > size:
             raise ReadError(f"{path}: the header says {count:,} points ({need:,} bytes) but the "
                             f"file has {size:,} bytes; it is truncated or the header is wrong")
+        evlr = int(getattr(h, "start_of_first_evlr", 0) or 0)
+        end = evlr if evlr > int(h.offset_to_point_data) else size
+        held = (end - int(h.offset_to_point_data)) // rec
+        if held > count:
+            import warnings
+
+            from ..errors import DataWarning
+
+            warnings.warn(DataWarning(
+                f"{path}: the file holds {held:,} point records but the header says {count:,}; "
+                f"only {count:,} are read"), stacklevel=2)
     elif count > 100 * size:  # LAZ: no point takes less than a bit or so
         raise ReadError(f"{path}: the header says {count:,} points, impossible in a "
                         f"{size:,}-byte LAZ file; the header is wrong")
