@@ -153,7 +153,19 @@ class DtmMethod:
     def describe(self) -> str:
         if self.kind == "kp" and self.g is not None:
             return f"kp:{self.g:g}:{self.w:g}"
-        return {"lowest": f"lowest:{self.size:g}", "file": self.path}.get(self.kind, self.kind)
+        if self.kind == "lowest":
+            return f"lowest:{(self.size or 5.0):g}"
+        if self.kind == "file":
+            return str(self.path)
+        return self.kind
+
+
+def _dtm_label(method: DtmMethod, kind: str) -> str:
+    """The ``-dtm`` value as given (``lowest:5``, ``kp:-1:1``, a path); ``auto`` with what it
+    chose (``auto (ground)``, ``auto (lowest:5)``)."""
+    if method.kind == "auto":
+        return f"auto ({'lowest:5' if kind == 'lowest' else kind})"
+    return method.describe()
 
 
 def _bilinear(arr, spec: GridSpec, x, y):
@@ -320,7 +332,7 @@ def compute_surfaces(src: PointSource, res, *, dtm="auto", fill="mean8", chm="ma
         heights = np.fmax(chm_arr, dsm_raw - dtm_arr)
     prog.update(0.95, "canopy height")
     return {"dsm": dsm, "dtm": dtm_arr, "chm": chm_arr, "heights": heights, "spec": spec, "res": res,
-            "dtm_method": kind if method.kind != "file" else method.path, "chm_method": chm,
+            "dtm_method": _dtm_label(method, kind), "chm_method": chm,
             "points": n, "outside": acc.outside, "dropped": dict(src.dropped),
             "outlier_cells": int(out_cells.sum()), "outlier_points": out_points}
 

@@ -116,8 +116,48 @@ def run_cli(args, feedback):
     return (-1 if feedback.isCanceled() else rc), last_err
 
 
+#: readable labels for parameters whose help text is too long to be one
+LABELS = {
+    "a_srs": "CRS of the input (assign)", "t_srs": "Reproject to CRS",
+    "allow_no_crs": "Allow outputs without a CRS", "buffer": "Tile buffer",
+    "chm": "Canopy height model", "columns": "Text columns (x,y,z,...)",
+    "creation_options": "GeoTIFF creation options", "crown_scale": "Crown scale",
+    "delimiter": "Text delimiter", "detected": "Detected tree tops",
+    "drop_class": "Leave out LAS classes", "dtm": "Terrain model (DTM)",
+    "dtm_out": "Terrain model output", "fill": "Gap filling", "gshift": "Shift g automatically",
+    "hspacing": "Horizontal search spacing", "input": "Input", "keep_class": "Use only LAS classes",
+    "keep_outliers": "Keep points far above the canopy", "levels": "Filter levels",
+    "low": "Low-point depth", "method": "Crown segmentation", "output": "Output",
+    "prefix": "Output prefix", "reclassify": "Reclassify other classes too",
+    "reference": "Reference trees", "refine": "Densification passes",
+    "res": "Cell size", "scheduler": "Dask scheduler address",
+    "skip_invalid": "Skip malformed text lines", "slope": "Slope tolerance factor",
+    "smooth": "Smoothing", "spacing": "Planting spacing (rows x trees)",
+    "strict": "Strict local maxima", "tile_size": "Tile size", "tin_cell": "TIN vertex cell",
+    "tolerance": "Tolerance above the surface", "tops": "Tree-top rule",
+    "treex_centred": "TreeX: also highest of the centred window", "w_growth": "w growth per level",
+    "window_factor": "Window factor", "workers": "Workers",
+}
+
+
+def qgis_message(cmd, msg: str) -> str:
+    """A CLI error message in QGIS words: each option flag (``-tr``, ``-overwrite``) becomes the
+    parameter's label in quotes."""
+    import re
+
+    flags = []
+    for p in cmd.params:
+        for f in ((p.flag,) if p.flag else ()) + tuple(p.aliases):
+            flags.append((f, _label(p)))
+    for f, lab in sorted(flags, key=lambda t: -len(t[0])):
+        msg = re.sub(rf"(?<![\w-]){re.escape(f)}(?![\w-])", f"'{lab}'", msg)
+    return msg
+
+
 def _label(p):
     unit = f" ({p.unit})" if p.unit else ""
+    if p.name in LABELS:
+        return LABELS[p.name] + unit
     return p.help.split(";")[0].split(" (")[0].rstrip(".") + unit if len(p.help) < 60 else (
         p.name.replace("_", " ").capitalize() + unit)
 
@@ -283,7 +323,8 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
                 feedback.reportError("cancelled: no output written")
                 return {}
             if rc != 0:
-                raise QgsProcessingException(last.split("error: ", 1)[-1] or f"lidartrees exit {rc}")
+                raise QgsProcessingException(qgis_message(cmd, last.split("error: ", 1)[-1])
+                                             or f"lidartrees exit {rc}")
             with open(result_file, encoding="utf-8") as fh:
                 res = json.load(fh)
         finally:

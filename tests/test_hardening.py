@@ -208,3 +208,14 @@ def test_stale_las_header_bounds_and_counts_are_warned(small_las, tmp_path, caps
     assert main(["info", str(g), "-q"]) == 0
     err = capsys.readouterr().err
     assert "holds 4,000 point records but the header says 3,000" in err
+
+
+@pytest.mark.parametrize("dtm, expect", [("lowest:5", "lowest:5"), ("lowest:7.5", "lowest:7.5"),
+                                         ("kp:-1:1", "kp:-1:1"), ("auto", "auto (lowest:5)")])
+def test_provenance_stores_the_dtm_parameter_as_given(small_las, tmp_path, dtm, expect):
+    import json
+
+    out = tmp_path / "c.tif"
+    assert main(["chm", str(small_las), str(out), "-dtm", dtm, "-tr", "1", "-q"]) == 0
+    with rasterio.open(out) as ds:
+        assert json.loads(ds.tags()["LIDARTREES_PARAMETERS"])["dtm"] == expect

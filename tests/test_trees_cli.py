@@ -138,4 +138,4 @@ def test_chm_defaults_on_bcts_give_canopy_heights(data, tmp_path):
         assert ds.res == (0.3, 0.3) and ds.crs.to_epsg() == 3005
     assert np.median(a[a > 2]) > 5
     assert '"chm": "pitfree"' in tags["LIDARTREES_PARAMETERS"]
-    assert '"dtm": "ground"' in tags["LIDARTREES_PARAMETERS"]
+    assert '"dtm": "auto (ground)"' in tags["LIDARTREES_PARAMETERS"]

@@ -1,5 +1,6 @@
 import json
 import os
+import re
 import subprocess
 import sys
 import zipfile
@@ -103,10 +104,32 @@ def test_info_grid_compare_demo(qgis_app, tmp_path, data):
 def test_library_error_becomes_processing_exception(qgis_app, tmp_path, data):
     from qgis.core import QgsProcessingException
 
-    with pytest.raises(QgsProcessingException, match="-tr"):
+    with pytest.raises(QgsProcessingException, match="'Cell size \\(m\\)': resolution") as e:
         run("chm", {"INPUT": str(data("lasR_bcts/bcts_1.laz")), "OUTPUT": str(tmp_path / "x.tif"),
                     "RES": "-1"})
+    assert "-tr" not in str(e.value)  # QGIS words, not CLI flags
     assert not (tmp_path / "x.tif").exists()
+    out = tmp_path / "exists.tif"
+    out.write_bytes(b"x")
+    with pytest.raises(QgsProcessingException) as e:
+        run("chm", {"INPUT": str(data("lasR_bcts/bcts_1.laz")), "OUTPUT": str(out)})
+    assert "-overwrite" not in str(e.value) and "'Replace existing outputs'" in str(e.value)
+
+
+def test_parameter_labels_are_readable(qgis_app):
+    from qgis.core import QgsApplication
+
+    for alg in QgsApplication.processingRegistry().providerById("lidartrees").algorithms():
+        for d in alg.parameterDefinitions():
+            label, name = d.description(), d.name().lower()
+            mechanical = name.replace("_", " ").capitalize()
+            if name in ("a_srs", "t_srs", "dtm", "chm", "res", "dtm_out", "dsm_out", "chm_out",
+                        "allow_no_crs", "w_growth", "tin_cell", "gshift", "treex_centred"):
+                assert label.split(" (")[0] != mechanical, (alg.name(), name, label)
+            assert not re.search(r"seed \d", label.lower()), (alg.name(), label)
+    chm = QgsApplication.processingRegistry().algorithmById("lidartrees:chm")
+    labels = {d.name().lower(): d.description() for d in chm.parameterDefinitions()}
+    assert labels["a_srs"] == "CRS of the input (assign)" and labels["dtm"] == "Terrain model (DTM)"
 
 
 def test_progress_moves_and_cancel_leaves_no_output(qgis_app, tmp_path, data):
