@@ -150,6 +150,21 @@ def main(argv=None) -> int:
             progress.close()
         print(f"lidartrees {cmd.name}: error: {exc}", file=sys.stderr)
         return 1
+    except OSError as exc:  # the system's word: no space, no permission, name too long
+        if hasattr(progress, "close"):
+            progress.close()
+        where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
+        what = exc.strerror or str(exc)
+        if len(where) > 160:
+            where = where[:80] + "..." + where[-60:]
+        print(f"lidartrees {cmd.name}: error: {where}{what}", file=sys.stderr)
+        return 1
+    except MemoryError:
+        if hasattr(progress, "close"):
+            progress.close()
+        print(f"lidartrees {cmd.name}: error: out of memory; process the area in tiles "
+              "(-tile_size) or use a larger cell size (-tr)", file=sys.stderr)
+        return 1
     finally:
         if hasattr(progress, "close"):
             progress.close()

@@ -106,9 +106,15 @@ def crs_from_sidecar(path) -> pyproj.CRS | None:
     for cand in (Path(str(p) + ".prj"), p.with_suffix(".prj")):
         if cand.exists():
             try:
-                return pyproj.CRS.from_user_input(cand.read_text().strip())
+                text = cand.read_text(encoding="utf-8-sig").strip()
+            except (UnicodeDecodeError, OSError) as exc:
+                raise CRSError(f"{cand}: the .prj beside the points is not a text CRS "
+                               f"({type(exc).__name__}); fix it or give -a_srs") from None
+            try:
+                return pyproj.CRS.from_user_input(text)
             except pyproj.exceptions.CRSError as exc:
-                raise CRSError(f"{cand}: not a readable CRS ({exc})") from None
+                raise CRSError(f"{cand}: not a readable CRS ({str(exc)[:160]}); fix it or give "
+                               "-a_srs") from None
     return None
 
 

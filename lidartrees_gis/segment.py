@@ -119,6 +119,12 @@ def region_growing(chm, rows, cols, *, step: float = 0.1, min_height: float = 2.
     if rows.size == 0:
         return labels
     hmax = float(np.max(a[np.isfinite(a)]))
+    passes = (hmax - float(min_height)) / step
+    if passes > 20_000:  # each pass scans the crowns' borders: bound the work
+        raise InputError(f"-step: {step:g} m from the highest cell ({hmax:.1f} m) down to "
+                         f"{min_height:g} m is {passes:.3g} passes (limit 20,000); use a step of "
+                         f"at least {(hmax - min_height) / 20_000:.3g} m (seed 000: 0.1 m), or check "
+                         "the heights (a CHM in centimetres?)")
     fn = _rg_nb if HAVE_NUMBA else _rg_kernel
     return fn(a, rows, cols, hmax, float(min_height), float(step), labels)
 

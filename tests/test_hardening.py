@@ -219,3 +219,45 @@ def test_provenance_stores_the_dtm_parameter_as_given(small_las, tmp_path, dtm, 
     assert main(["chm", str(small_las), str(out), "-dtm", dtm, "-tr", "1", "-q"]) == 0
     with rasterio.open(out) as ds:
         assert json.loads(ds.tags()["LIDARTREES_PARAMETERS"])["dtm"] == expect
+
+
+def test_files_that_are_not_point_data_are_refused(small_las, tmp_path, capsys):
+    import pyogrio
+    import geopandas as gpd
+    import shapely
+
+    g = tmp_path / "plots.gpkg"
+    pyogrio.write_dataframe(gpd.GeoDataFrame({"a": [1]}, geometry=[shapely.Point(0, 0)],
+                                             crs="EPSG:31983"), g)
+    shp = tmp_path / "plots.shp"
+    pyogrio.write_dataframe(gpd.GeoDataFrame({"a": [1]}, geometry=[shapely.Point(0, 0)],
+                                             crs="EPSG:31983"), shp)
+    img = tmp_path / "photo.xyz"  # a PNG under a point-file name
+    img.write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(300))
+    txt = tmp_path / "notes.txt"
+    txt.write_text("Field notes, stand 12\nrain in the morning\n" * 30)
+    for f, what in ((g, "GeoPackage"), (shp, "shapefile"), (img, "PNG"), (txt, "not point data")):
+        assert main(["info", str(f), "-q"]) == 1
+        _one_error_line(capsys, what, str(f))
+
+
+def test_system_errors_are_one_line(small_las, tmp_path, capsys):
+    long_name = tmp_path / ("a" * 300 + ".tif")
+    assert main(["grid", str(small_las), str(long_name), "-tr", "1", "-q"]) == 1
+    _one_error_line(capsys, "File name too long")
+    xyz = tmp_path / "p.xyz"
+    xyz.write_text("".join(f"{500000 + i}.5 7500000.5 600\n" for i in range(50)))
+    (tmp_path / "p.prj").write_bytes(bytes(range(250, 256)) * 20)
+    assert main(["info", str(xyz), "-q"]) == 1
+    _one_error_line(capsys, "p.prj", "not a text CRS")
+
+
+def test_absurd_region_growing_step_is_refused_quickly(tmp_path, capsys):
+    from lidartrees_gis.synthetic import make_stand, write_xyz_seed_dialect
+
+    pts, _ = make_stand()
+    f = tmp_path / "s.xyz"
+    write_xyz_seed_dialect(f, pts)
+    assert main(["trees", str(f), str(tmp_path / "t.gpkg"), "-a_srs", "EPSG:29194", "-method",
+                 "rg", "-step", "1e-9", "-q"]) == 1
+    _one_error_line(capsys, "-step", "passes")

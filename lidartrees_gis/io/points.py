@@ -221,6 +221,11 @@ def sniff_xyz(path, *, delimiter=None, decimal_comma=None, header=None, columns=
                                              for ln in lines for t in _split(ln, delim))
     if decimal_comma and delim == ",":
         raise InputError(f"{path}: a decimal comma cannot be used with a comma delimiter")
+    numeric = sum(1 for ln in lines
+                  if sum(_is_number(t.strip(), decimal_comma) for t in _split(ln, delim)) >= 2)
+    if numeric < max(1, (len(lines) - 1) / 2):
+        raise InputError(f"{path}: only {numeric} of the first {len(lines)} lines hold numbers; "
+                         "this is not point data (XYZ text has x y z per line)")
     first = [t.strip() for t in _split(lines[0], delim)]
     if header is None:
         header = not all(_is_number(t, decimal_comma) for t in first if t)
@@ -489,6 +494,32 @@ class PointSource:
         return np.asarray(rows, dtype=np.float64).reshape(-1, len(usecols))
 
 
+#: signatures and names of files that are not point data (they would otherwise be read as text)
+_NOT_POINTS = ((b"SQLite format 3\x00", "a GeoPackage/SQLite database"),
+               (b"\x00\x00\x27\x0a", "a shapefile"), (b"\x89PNG", "a PNG image"),
+               (b"II*\x00", "a TIFF/GeoTIFF raster"), (b"MM\x00*", "a TIFF/GeoTIFF raster"),
+               (b"%PDF", "a PDF document"), (b"PK\x03\x04", "a ZIP archive"),
+               (b"\xff\xd8\xff", "a JPEG image"))
+_NOT_POINT_SUFFIXES = {".gpkg": "a GeoPackage", ".shp": "a shapefile", ".shx": "a shapefile index",
+                       ".dbf": "a shapefile table", ".tif": "a GeoTIFF raster",
+                       ".tiff": "a GeoTIFF raster", ".png": "an image", ".jpg": "an image",
+                       ".geojson": "a GeoJSON vector", ".kml": "a KML vector",
+                       ".zip": "a ZIP archive", ".pdf": "a PDF document", ".vrt": "a GDAL VRT"}
+
+
+def _refuse_non_point_data(path):
+    """Refuse files that are not point data (vectors, rasters, images, archives)."""
+    with open(path, "rb") as fh:
+        head = fh.read(16)
+    what = _NOT_POINT_SUFFIXES.get(path.suffix.lower())
+    for sig, name in _NOT_POINTS:
+        if head.startswith(sig):
+            what = name
+    if what:
+        raise InputError(f"{path}: this is {what}, not point data; give LAS/LAZ or XYZ text "
+                         "(x y z per line)")
+
+
 def _check_las_raw(path):
     """Check the fixed LAS header fields that tell the reader how much to read (signature,
     version, header size, VLR and EVLR counts) before laspy trusts them."""
@@ -599,6 +630,7 @@ def open_points(path, *, a_srs=None, t_srs=None, delimiter=None, decimal_comma=N
     if chunk_size < 1:
         raise InputError(f"chunk_size: must be >= 1, got {chunk_size}")
     crs = parse_crs(a_srs) if a_srs else None
+    _refuse_non_point_data(path)
     if path.suffix.lower() in LAS_SUFFIXES:
         import laspy
 
