@@ -26,6 +26,7 @@ def build(out) -> Path:
         for f in sorted((ROOT / "styles").glob("*.qml")):
             z.write(f, f"{PLUGIN}/styles/{f.name}")
         z.write(ROOT / "README.md", f"{PLUGIN}/README.md")
+        z.write(ROOT / "LICENSE", f"{PLUGIN}/LICENSE")
     tmp.replace(out)
     return out
 

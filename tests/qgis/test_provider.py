@@ -187,6 +187,8 @@ def test_plugin_zip_installs_and_runs_in_qgis_process(qgis_app, tmp_path, data):
     with zipfile.ZipFile(z) as zf:
         zf.extractall(plugins)
     assert (plugins / "lidartrees_qgis" / "metadata.txt").exists()
+    lic = (plugins / "lidartrees_qgis" / "LICENSE").read_text()
+    assert "GNU GENERAL PUBLIC LICENSE" in lic and "Version 3" in lic
     home = tmp_path / "home"
     home.mkdir(mode=0o700)
     # a fresh profile; the plugin finds the lidartrees command through LIDARTREES_EXE
