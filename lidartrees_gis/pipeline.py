@@ -338,9 +338,23 @@ def compute_surfaces(src: PointSource, res, *, dtm="auto", fill="mean8", chm="ma
 
 
 def _tags(command: str, src: PointSource, params: dict) -> dict:
-    return {"LIDARTREES_COMMAND": command, "LIDARTREES_INPUT": str(src.path),
+    tags = {"LIDARTREES_COMMAND": command, "LIDARTREES_INPUT": str(src.path),
             "LIDARTREES_PARAMETERS": {k: v for k, v in params.items() if v is not None},
             "LIDARTREES_CRS": crs_label(src.crs), "LIDARTREES_TOOL": f"lidartrees_gis {__version__}"}
+    tags.update({k.upper().replace("REPROJECTION_", "LIDARTREES_"): v
+                 for k, v in _repro_meta(src).items()})
+    return tags
+
+
+def _repro_meta(src: PointSource) -> dict:
+    """Source CRS, operation and its accuracy of a ``-t_srs`` reprojection (empty without)."""
+    r = getattr(src, "repro", None)
+    if r is None:
+        return {}
+    acc = None if r.accuracy is None or r.accuracy < 0 else r.accuracy
+    return {"reprojection_source_crs": crs_label(r.src), "reprojection_operation": r.description,
+            "reprojection_accuracy_m": "unknown" if acc is None else f"{acc:g}",
+            "reprojection_note": r.note.lstrip("; ") or None}
 
 
 #: LAS classes dropped by default: 7 low noise, 18 high noise (ASPRS)
@@ -510,7 +524,8 @@ def load_chm(input, *, res="auto", dtm="auto", chm="pitfree", fill="mean8", outl
     s = compute_surfaces(src, "auto" if res is None else res, dtm=dtm, fill=fill, chm=chm,
                          outliers=outliers, progress=progress)
     info = {"res": s["res"], "dtm": s["dtm_method"], "chm": chm, "points": s["points"],
-            "heights": s["heights"], **_filter_report(src, s)}
+            "heights": s["heights"], **_filter_report(src, s), "repro": _repro_meta(src),
+            "reprojection": src.repro.report() if src.repro else None}
     return s["chm"], s["spec"], str(input), info
 
 
@@ -646,6 +661,7 @@ def trees_file(input, output, *, res="auto", params=None, dtm="auto", chm="pitfr
     meta = {"lidartrees_version": __version__, "input": source, "res": spec.res,
             "dtm": built.get("dtm", dtm), "chm": built.get("chm", "input raster"), "fill": fill,
             **p.as_dict(), **{f"auto_{k}": v for k, v in (result.get("auto") or {}).items()}}
+    meta.update({k: v for k, v in (built.get("repro") or {}).items() if v is not None})
     if "res" in built:
         meta.update({"drop_class": ",".join(map(str, parse_classes(drop_class) or ())),
                      "keep_class": keep_class, "outliers": outliers,
@@ -677,7 +693,7 @@ def trees_file(input, output, *, res="auto", params=None, dtm="auto", chm="pitfr
            "mean_crown_diameter": _round(srow["mean_crown_diameter"], 2),
            "trees_per_ha": _round(srow["trees_per_ha"], 1),
            "dropped_classes": built.get("dropped_classes"), "outlier_points": built.get("outlier_points"),
-           "result": result, "spec": spec}
+           "reprojection": built.get("reprojection"), "result": result, "spec": spec}
     if "stocking_pct" in srow:
         out.update({k: srow[k] for k in ("spacing", "row_azimuth", "planting_positions",
                                          "missing_trees")})

@@ -261,3 +261,28 @@ def test_absurd_region_growing_step_is_refused_quickly(tmp_path, capsys):
     assert main(["trees", str(f), str(tmp_path / "t.gpkg"), "-a_srs", "EPSG:29194", "-method",
                  "rg", "-step", "1e-9", "-q"]) == 1
     _one_error_line(capsys, "-step", "passes")
+
+
+def test_t_srs_states_and_stores_the_operation(tmp_path, capsys):
+    import pyogrio
+
+    from lidartrees_gis.synthetic import make_stand, write_xyz_seed_dialect
+
+    pts, _ = make_stand()
+    f = tmp_path / "s.xyz"
+    write_xyz_seed_dialect(f, pts)
+    crs = ["-a_srs", "SAD69 24K", "-t_srs", "EPSG:31984"]
+    for cmd, out in (("chm", tmp_path / "c.tif"), ("trees", tmp_path / "t.gpkg")):
+        assert main([cmd, str(f), str(out), *crs]) == 0
+        printed = capsys.readouterr().err  # results go to stderr, as GDAL's
+        line = [ln for ln in printed.splitlines() if ln.startswith("reprojection:")]
+        assert len(line) == 1 and "SAD69" in line[0] and "SIRGAS 2000" in line[0]
+        assert "accuracy" in line[0]
+    with rasterio.open(tmp_path / "c.tif") as ds:
+        tags = ds.tags()
+        assert ds.crs.to_epsg() == 31984
+    assert "SAD69" in tags["LIDARTREES_SOURCE_CRS"] and "SAD69 to SIRGAS 2000" in tags["LIDARTREES_OPERATION"]
+    assert float(tags["LIDARTREES_ACCURACY_M"]) > 0
+    meta = pyogrio.read_info(tmp_path / "t.gpkg", layer="tree_tops")["layer_metadata"]
+    assert "SAD69 to SIRGAS 2000" in meta["reprojection_operation"]
+    assert float(meta["reprojection_accuracy_m"]) > 0
