@@ -818,7 +818,7 @@ def ground_file(input, output, *, dtm_out=None, res="auto", params=None, overwri
     write_classified(output, src, cls, overwrite=overwrite)
     out = {"output": str(output), "points": len(pts), "ground": int((cls == 2).sum()),
            "ground_share": float((cls == 2).mean()), "kept_classes": int((~np.isin(cls, (1, 2))).sum()),
-           "crs": crs_label(src.crs)}
+           "crs": crs_label(src.crs), "reprojection": src.repro.report() if src.repro else None}
     if dtm_out:
         r = resolve_resolution(src, res)
         spec = GridSpec.from_bounds(pts.x.min(), pts.y.min(), pts.x.max(), pts.y.max(), r,
@@ -1032,7 +1032,8 @@ def dtm_quality_file(input, outdir, *, g="-4:1:0.5", w="1:4:0.5", res="auto", pa
             "pc1_variance": float(var[0]), "clusters": [int((labels == c).sum()) for c in sorted(roles)],
             "good_cluster": good, "roles": {str(c): r for c, r in roles.items()}, "recommended_g": results[best][0],
             "recommended_w": results[best][1], "g_equals_minus_w_in_good": f"{len(in_good)}/{len(g_eq_minus_w)}",
-            "pngs": pngs, "dtm": str(dtm_path)}
+            "pngs": pngs, "dtm": str(dtm_path),
+            "reprojection": src.repro.report() if src.repro else None}
 
 
 # ---------------------------------------------------------------------------------------------
