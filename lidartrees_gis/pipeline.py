@@ -106,10 +106,11 @@ def grid_spec_for(src: PointSource, res: float, progress=None) -> GridSpec:
 MAX_CELLS_PER_POINT = 10_000
 
 
-def check_sparse(cells, n, bounds, res, path=""):
+def check_sparse(cells, n, bounds, res, path="", limit=None):
     """Refuse a grid with far more cells than points (a wrong digit in one coordinate, or files
     kilometres apart): it would take long to fill and mean nothing."""
-    if n and cells > 1_000_000 and cells / n > MAX_CELLS_PER_POINT:
+    limit = MAX_CELLS_PER_POINT if limit is None else limit
+    if n and cells > 1_000_000 and cells / n > limit:
         b = bounds
         raise InputError(
             f"{path}: {n:,} points spread over {b[2] - b[0]:.0f} x {b[3] - b[1]:.0f} m "
