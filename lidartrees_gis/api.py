@@ -69,21 +69,14 @@ def find_trees(input, *, params=None, res="auto", dtm="auto", chm="pitfree", fil
     summary : dict
         The stand summary (trees, trees per ha, mean height, crown scale, stocking ...).
     """
-    from .pipeline import load_chm, trees_frames
-    from .trees import TreeParams, detect_trees
+    from .pipeline import detect_with_stocking, load_chm, trees_frames
+    from .trees import TreeParams
 
     p = params or TreeParams()
     arr, spec, _, built = load_chm(input, res=res, dtm=dtm, chm=chm, fill=fill,
                                    outliers=outliers, drop_class=drop_class, keep_class=keep_class,
                                    a_srs=a_srs, t_srs=t_srs, progress=progress, **read_kw)
-    result = detect_trees(arr, spec, p, heights=built.get("heights"))
-    result["chm"] = arr
-    if p.spacing is not None:
-        from .stocking import stocking
-
-        t = result["table"]
-        result["stocking"] = stocking(t["x"], t["y"], arr, spec, p.spacing,
-                                      min_height=p.min_height)
+    result = detect_with_stocking(arr, spec, p, built.get("heights"))
     frames = trees_frames(result, spec, "")
     summary = frames["summary"].iloc[0].to_dict()
     return frames["tree_tops"], frames["crowns"], summary

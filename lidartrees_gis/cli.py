@@ -145,25 +145,10 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print("lidartrees: interrupted; no output written", file=sys.stderr)
         return 130
-    except LidarTreesError as exc:
+    except (LidarTreesError, OSError, MemoryError) as exc:
         if hasattr(progress, "close"):
             progress.close()
-        print(f"lidartrees {cmd.name}: error: {exc}", file=sys.stderr)
-        return 1
-    except OSError as exc:  # the system's word: no space, no permission, name too long
-        if hasattr(progress, "close"):
-            progress.close()
-        where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
-        what = exc.strerror or str(exc)
-        if len(where) > 160:
-            where = where[:80] + "..." + where[-60:]
-        print(f"lidartrees {cmd.name}: error: {where}{what}", file=sys.stderr)
-        return 1
-    except MemoryError:
-        if hasattr(progress, "close"):
-            progress.close()
-        print(f"lidartrees {cmd.name}: error: out of memory; process the area in tiles "
-              "(-tile_size) or use a larger cell size (-tr)", file=sys.stderr)
+        print(f"lidartrees {cmd.name}: error: {_error_text(exc)}", file=sys.stderr)
         return 1
     finally:
         if hasattr(progress, "close"):
@@ -173,6 +158,19 @@ def main(argv=None) -> int:
             json.dump(res, fh, default=str)
     _print_result(cmd.name, res, args.quiet or args.progress_lines, as_json)
     return 0
+
+
+def _error_text(exc) -> str:
+    """One line for an error: ours as written; the system's (no space, no permission, name too
+    long) with the file; out of memory with what to do."""
+    if isinstance(exc, LidarTreesError):
+        return str(exc)
+    if isinstance(exc, MemoryError):
+        return "out of memory; process the area in tiles (-tile_size) or use a larger cell size (-tr)"
+    where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
+    if len(where) > 160:
+        where = where[:80] + "..." + where[-60:]
+    return f"{where}{exc.strerror or exc}"
 
 
 def _terminate_as_interrupt():

@@ -113,6 +113,23 @@ def check_resolution(res) -> float:
     return r
 
 
+#: more cells per point than this (on grids over a million cells) means points far apart
+MAX_CELLS_PER_POINT = 10_000
+
+
+def check_sparse(cells, n, bounds, res, path="", limit=None):
+    """Refuse a grid with far more cells than points (a wrong digit in one coordinate, or files
+    kilometres apart): it would take long to fill and mean nothing."""
+    limit = MAX_CELLS_PER_POINT if limit is None else limit
+    if n and cells > 1_000_000 and cells / n > limit:
+        b = bounds
+        raise InputError(
+            f"{path}: {n:,} points spread over {b[2] - b[0]:.0f} x {b[3] - b[1]:.0f} m "
+            f"(x {b[0]:.2f}..{b[2]:.2f}, y {b[1]:.2f}..{b[3]:.2f}) would need {cells:.3g} cells of "
+            f"{res:g} m, {cells / n:.0f} per point; check for a wrong digit in a coordinate or "
+            "points far from the others")
+
+
 def auto_resolution(count: int, area: float) -> float:
     """Seed 003's rule: cell size C = sqrt(1 / n), n = points per m².
 

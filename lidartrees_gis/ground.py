@@ -47,7 +47,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from .errors import InputError
-from .grid import GridSpec, fill_mean8
+from .grid import GridSpec, check_sparse, fill_mean8
 from .progress import as_progress, check_cancel
 
 
@@ -170,25 +170,16 @@ def _surface(x, y, z, wts, spec: GridSpec, plane=True):
     return fill_mean8(grid.reshape(spec.shape))
 
 
-def _bilinear(grid, spec: GridSpec, x, y, extrapolate=False):
-    """Bilinear interpolation of cell-centre values at points. Beyond the outer cell centres the
-    edge values are held, or with ``extrapolate`` the edge gradient is continued (half a cell at
-    most), so a surface on a slope does not sag at the borders."""
+def _bilinear(grid, spec: GridSpec, x, y):
+    """Bilinear interpolation of cell-centre values at points (edges clamped)."""
     fc = (np.asarray(x) - spec.left) / spec.res - 0.5
     fr = (spec.top - np.asarray(y)) / spec.res - 0.5
-    if extrapolate and spec.width > 1 and spec.height > 1:
-        c0 = np.clip(np.floor(fc).astype(np.int64), 0, spec.width - 2)
-        r0 = np.clip(np.floor(fr).astype(np.int64), 0, spec.height - 2)
-        tx = np.clip(fc - c0, -0.5, 1.5)
-        ty = np.clip(fr - r0, -0.5, 1.5)
-        c1, r1 = c0 + 1, r0 + 1
-    else:
-        c0 = np.clip(np.floor(fc).astype(np.int64), 0, spec.width - 1)
-        r0 = np.clip(np.floor(fr).astype(np.int64), 0, spec.height - 1)
-        c1 = np.clip(c0 + 1, 0, spec.width - 1)
-        r1 = np.clip(r0 + 1, 0, spec.height - 1)
-        tx = np.clip(fc - c0, 0, 1)
-        ty = np.clip(fr - r0, 0, 1)
+    c0 = np.clip(np.floor(fc).astype(np.int64), 0, spec.width - 1)
+    r0 = np.clip(np.floor(fr).astype(np.int64), 0, spec.height - 1)
+    c1 = np.clip(c0 + 1, 0, spec.width - 1)
+    r1 = np.clip(r0 + 1, 0, spec.height - 1)
+    tx = np.clip(fc - c0, 0, 1)
+    ty = np.clip(fr - r0, 0, 1)
     top = grid[r0, c0] * (1 - tx) + grid[r0, c1] * tx
     bot = grid[r1, c0] * (1 - tx) + grid[r1, c1] * tx
     return top * (1 - ty) + bot * ty
@@ -260,8 +251,6 @@ def kraus_pfeifer(x, y, z, params: KrausPfeifer | None = None, progress=None):
     if x.size == 0:
         raise InputError("ground filter: no points")
     prog = as_progress(progress)
-    from .pipeline import check_sparse
-
     b = (x.min(), y.min(), x.max(), y.max())
     for res in (p.cell, refine_cell(x, y)):
         check_sparse((b[2] - b[0] + res) * (b[3] - b[1] + res) / res ** 2, x.size, b, res,

@@ -16,7 +16,7 @@ from . import __version__
 from .crs import crs_label
 from .errors import InputError
 from .grid import (GridAccumulator, GridSpec, LowestPoints, auto_resolution, check_resolution,
-                   data_footprint, fill_gaps, interpolate_tin, resample_to)
+                   check_sparse, data_footprint, fill_gaps, interpolate_tin, resample_to)
 from .io.points import PointSource, open_points
 from .io.raster import read_raster, write_geotiff
 from .progress import SubProgress, as_progress, check_cancel
@@ -100,23 +100,6 @@ def grid_spec_for(src: PointSource, res: float, progress=None) -> GridSpec:
     n = src.count_hint
     check_sparse(w * h, n, b, res, src.path)
     return GridSpec.from_bounds(*b, res, crs=src.crs)
-
-
-#: more cells per point than this (on grids over a million cells) means points far apart
-MAX_CELLS_PER_POINT = 10_000
-
-
-def check_sparse(cells, n, bounds, res, path="", limit=None):
-    """Refuse a grid with far more cells than points (a wrong digit in one coordinate, or files
-    kilometres apart): it would take long to fill and mean nothing."""
-    limit = MAX_CELLS_PER_POINT if limit is None else limit
-    if n and cells > 1_000_000 and cells / n > limit:
-        b = bounds
-        raise InputError(
-            f"{path}: {n:,} points spread over {b[2] - b[0]:.0f} x {b[3] - b[1]:.0f} m "
-            f"(x {b[0]:.2f}..{b[2]:.2f}, y {b[1]:.2f}..{b[3]:.2f}) would need {cells:.3g} cells of "
-            f"{res:g} m, {cells / n:.0f} per point; check for a wrong digit in a coordinate or "
-            "points far from the others")
 
 
 @dataclass
@@ -347,6 +330,11 @@ def _tags(command: str, src: PointSource, params: dict) -> dict:
     return tags
 
 
+def _repro_report(src: PointSource):
+    """The ``-t_srs`` operation in words (None without a reprojection)."""
+    return src.repro.report() if getattr(src, "repro", None) else None
+
+
 def _repro_meta(src: PointSource) -> dict:
     """Source CRS, operation and its accuracy of a ``-t_srs`` reprojection (empty without)."""
     r = getattr(src, "repro", None)
@@ -441,7 +429,7 @@ def grid_file(input, output, *, res="auto", stat="max", fill="none", a_srs=None,
     prog.update(1.0, "done")
     return {"output": str(output), "points": n, "res": r, "shape": spec.shape,
             "crs": crs_label(spec.crs), "skipped": src.skipped, **_filter_report(src),
-            "reprojection": src.repro.report() if src.repro else None}
+            "reprojection": _repro_report(src)}
 
 
 def chm_file(input, output, *, res="auto", dtm="auto", chm="pitfree", fill="mean8",
@@ -483,7 +471,7 @@ def chm_file(input, output, *, res="auto", dtm="auto", chm="pitfree", fill="mean
     return {"output": str(output), "points": s["points"], "res": s["res"], "shape": s["spec"].shape,
             "crs": crs_label(s["spec"].crs), "dtm": s["dtm_method"], "chm": chm,
             "skipped": src.skipped, **_filter_report(src, s),
-            "reprojection": src.repro.report() if src.repro else None}
+            "reprojection": _repro_report(src)}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -526,7 +514,7 @@ def load_chm(input, *, res="auto", dtm="auto", chm="pitfree", fill="mean8", outl
                          outliers=outliers, progress=progress)
     info = {"res": s["res"], "dtm": s["dtm_method"], "chm": chm, "points": s["points"],
             "heights": s["heights"], **_filter_report(src, s), "repro": _repro_meta(src),
-            "reprojection": src.repro.report() if src.repro else None}
+            "reprojection": _repro_report(src)}
     return s["chm"], s["spec"], str(input), info
 
 
@@ -615,6 +603,24 @@ def write_quicklook(path, chm, labels, rows, cols, *, overwrite=False):
     plt.close(fig)
 
 
+def detect_with_stocking(arr, spec, params, heights=None, progress=None) -> dict:
+    """:func:`lidartrees_gis.trees.detect_trees` on a CHM, plus the stocking of the fitted
+    planting grid in plantation mode (``params.spacing``); the CHM is kept as ``result["chm"]``."""
+    from .trees import detect_trees
+
+    result = detect_trees(arr, spec, params, heights=heights)
+    check_cancel(progress)
+    result["chm"] = arr
+    if params.spacing is not None:
+        from .stocking import stocking
+
+        as_progress(progress).update(0.75, "planting grid")
+        t = result["table"]
+        result["stocking"] = stocking(t["x"], t["y"], arr, spec, params.spacing,
+                                      min_height=params.min_height)
+    return result
+
+
 def trees_file(input, output, *, res="auto", params=None, dtm="auto", chm="pitfree",
                fill="mean8", outliers=True, drop_class=NOISE_CLASSES, keep_class=None, nln="",
                layer_options=None, overwrite=False, append=False, png=None, csv=None,
@@ -628,7 +634,7 @@ def trees_file(input, output, *, res="auto", params=None, dtm="auto", chm="pitfr
     """
     from .io.output import check_output
     from .io.vector import write_gpkg
-    from .trees import TreeParams, detect_trees
+    from .trees import TreeParams
 
     from .io.output import check_not_input
 
@@ -647,16 +653,8 @@ def trees_file(input, output, *, res="auto", params=None, dtm="auto", chm="pitfr
                                         progress=SubProgress(prog, 0, 0.5), **read_kw)
     prog.update(0.5, "detecting trees")
     check_cancel(prog)
-    result = detect_trees(arr, spec, p, heights=built.get("heights"))
-    check_cancel(prog)
-    result["chm"] = arr
+    result = detect_with_stocking(arr, spec, p, built.get("heights"), prog)
     t = result["table"]
-    if p.spacing is not None:
-        from .stocking import stocking
-
-        prog.update(0.75, "planting grid")
-        result["stocking"] = stocking(t["x"], t["y"], arr, spec, p.spacing,
-                                      min_height=p.min_height)
     prog.update(0.8, "writing")
     frames = trees_frames(result, spec, nln)
     meta = {"lidartrees_version": __version__, "input": source, "res": spec.res,
@@ -819,7 +817,7 @@ def ground_file(input, output, *, dtm_out=None, res="auto", params=None, overwri
     write_classified(output, src, cls, overwrite=overwrite)
     out = {"output": str(output), "points": len(pts), "ground": int((cls == 2).sum()),
            "ground_share": float((cls == 2).mean()), "kept_classes": int((~np.isin(cls, (1, 2))).sum()),
-           "crs": crs_label(src.crs), "reprojection": src.repro.report() if src.repro else None}
+           "crs": crs_label(src.crs), "reprojection": _repro_report(src)}
     if dtm_out:
         r = resolve_resolution(src, res)
         spec = GridSpec.from_bounds(pts.x.min(), pts.y.min(), pts.x.max(), pts.y.max(), r,
@@ -1034,7 +1032,7 @@ def dtm_quality_file(input, outdir, *, g="-4:1:0.5", w="1:4:0.5", res="auto", pa
             "good_cluster": good, "roles": {str(c): r for c, r in roles.items()}, "recommended_g": results[best][0],
             "recommended_w": results[best][1], "g_equals_minus_w_in_good": f"{len(in_good)}/{len(g_eq_minus_w)}",
             "pngs": pngs, "dtm": str(dtm_path),
-            "reprojection": src.repro.report() if src.repro else None}
+            "reprojection": _repro_report(src)}
 
 
 # ---------------------------------------------------------------------------------------------

@@ -21,6 +21,7 @@ import numpy as np
 
 from .catalog import Catalog, Tile, TileSource, make_tiles
 from .errors import InputError
+from .io.vector import start_from_existing
 from .progress import as_progress, check_cancel
 
 #: default tile side (m)
@@ -313,7 +314,6 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
     so the calling process holds one tile's trees at a time; the summary table comes last.
     """
     import contextlib
-    import shutil
     import warnings
     from pathlib import Path
 
@@ -359,17 +359,7 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
     canopy, points, dropped, outliers = 0, 0, {}, 0
     with contextlib.ExitStack() as stack:
         tmp = stack.enter_context(atomic_output(output, overwrite=True))
-        existing = set()
-        if out_path.exists():  # -append adds; -overwrite replaces only our layers (as ogr2ogr)
-            try:
-                layers = {name for name, _ in pyogrio.list_layers(out_path)}
-            except Exception:  # noqa: BLE001 - not a GeoPackage: replaced
-                if append:
-                    raise InputError(f"{out_path}: -append: the file is not a GeoPackage") from None
-                layers = None
-            if layers is not None:
-                shutil.copyfile(out_path, tmp)
-                existing = layers if append else set()
+        existing = start_from_existing(out_path, tmp, append)
         created = set()
 
         def put(df, layer, geometry_type=None):
@@ -470,9 +460,8 @@ def chm_tiled(input, output, *, tile_size=None, buffer=None, workers=None, sched
     """``lidartrees chm`` over many files: a CHM (and DTM) mosaic, tile by tile."""
     import contextlib
 
-    from .chm import chm_resolution
     from .crs import crs_label
-    from .grid import GridSpec, check_resolution
+    from .grid import GridSpec
     from .io.output import atomic_output, check_output
     from .progress import SubProgress
 

@@ -522,7 +522,8 @@ def _refuse_non_point_data(path):
 
 def _check_las_raw(path):
     """Check the fixed LAS header fields that tell the reader how much to read (signature,
-    version, header size, VLR and EVLR counts) before laspy trusts them."""
+    version, header size, VLR and EVLR counts) before laspy trusts them; returns the header
+    bytes."""
     import struct
 
     size = path.stat().st_size
@@ -546,16 +547,14 @@ def _check_las_raw(path):
         if nevlr and (start > size or nevlr * 60 > size - start):
             raise ReadError(f"{path}: the LAS header lists {nevlr:,} extended VLRs from byte "
                             f"{start}, beyond the {size}-byte file; the header is corrupt")
+    return b
 
 
 def las_point_count(path) -> int:
     """Point count from a LAS/LAZ header, after :func:`_check_las_raw`."""
     import struct
 
-    path = Path(path)
-    _check_las_raw(path)
-    with open(path, "rb") as fh:
-        b = fh.read(255)
+    b = _check_las_raw(Path(path))
     legacy, = struct.unpack_from("<I", b, 107)
     if b[25] >= 4 and len(b) >= 255:
         n, = struct.unpack_from("<Q", b, 247)

@@ -9,6 +9,30 @@ from ..errors import InputError, OutputExistsError
 from .output import atomic_output
 
 
+def _layers(p):
+    import pyogrio
+
+    return [name for name, _ in pyogrio.list_layers(p)]
+
+
+def start_from_existing(p, tmp, append) -> set:
+    """Begin the temporary copy of GeoPackage ``p`` from the existing file, if any: ``-append``
+    adds to its layers (their names are returned), ``-overwrite`` replaces only the layers then
+    written (as ogr2ogr) and keeps the others. A file that is not a GeoPackage is replaced, or
+    refused with ``append``."""
+    p = Path(p)
+    if not p.exists():
+        return set()
+    try:
+        names = set(_layers(p))
+    except Exception:  # noqa: BLE001 - not a GeoPackage
+        if append:
+            raise InputError(f"{p}: -append: the file is not a GeoPackage") from None
+        return set()
+    shutil.copyfile(p, tmp)
+    return names if append else set()
+
+
 def write_gpkg(path, layers: dict, *, overwrite=False, append=False, layer_options=None,
                metadata=None) -> None:
     """Write several layers (name -> GeoDataFrame or DataFrame) to one GeoPackage.
@@ -24,20 +48,12 @@ def write_gpkg(path, layers: dict, *, overwrite=False, append=False, layer_optio
         raise InputError(f"OUTPUT: {p}: expected a .gpkg file name")
     if p.exists() and not (overwrite or append):
         raise OutputExistsError(f"{p}: output exists; use -overwrite to replace it or -append")
-    existing = set()
-    keep = False  # copy the existing file: -append, or -overwrite of some layers (as ogr2ogr)
-    if p.exists():
-        try:
-            names = {name for name, _ in pyogrio.list_layers(p)}
-            keep = True
-        except Exception:  # noqa: BLE001 - not a GeoPackage: -overwrite replaces the file
-            if append:
-                raise InputError(f"{p}: -append: the file is not a GeoPackage") from None
-            names = set()
-        if append:
-            existing = names
+    try:
+        appended = set(_layers(p)) if append and p.exists() else set()
+    except Exception:  # noqa: BLE001 - not a GeoPackage: refused below
+        appended = set()
     for name, df in layers.items():  # -append of the same trees twice (e.g. the same tile)
-        if name in existing and "tree_id" in getattr(df, "columns", ()) and len(df):
+        if name in appended and "tree_id" in getattr(df, "columns", ()) and len(df):
             old = pyogrio.read_dataframe(p, layer=name, columns=["tree_id"], read_geometry=False)
             if "tree_id" in old.columns:
                 dup = len(set(old["tree_id"].tolist()) & set(df["tree_id"].tolist()))
@@ -47,8 +63,7 @@ def write_gpkg(path, layers: dict, *, overwrite=False, append=False, layer_optio
                         f"{len(df):,} trees (same tree_id: the same area twice?); use -overwrite "
                         "to replace the layers, or append other areas only")
     with atomic_output(p, overwrite=True) as tmp:
-        if keep:
-            shutil.copyfile(p, tmp)
+        existing = start_from_existing(p, tmp, append)
         meta = {k: (v if isinstance(v, str) else json.dumps(v, default=str))
                 for k, v in (metadata or {}).items()}
         import warnings
