@@ -41,12 +41,13 @@ def _accumulate_py(x, y, z, left, bottom, res, height, width, eps, count, mx, mn
     for i in range(x.shape[0]):
         fc = (x[i] - left) * inv + eps
         fr = (y[i] - bottom) * inv + eps
-        if not (fc >= 0.0 and fr >= 0.0):
+        # compared as floats before any int conversion: NaN, inf and 1e300 never become an index
+        if not (fc >= 0.0 and fr >= 0.0 and fc < width and fr < height):
             outside += 1
             continue
         c = int(fc)
         r = height - 1 - int(fr)
-        if c >= width or r < 0:
+        if c >= width or r < 0 or c < 0 or r >= height:
             outside += 1
             continue
         k = r * width + c
@@ -67,6 +68,10 @@ _accumulate_nb = _jit(_accumulate_py)
 
 def accumulate(x, y, z, left, bottom, res, height, width, eps, count, mx, mn, sm) -> int:
     """Fused gridding kernel (numba only; callers use the numpy path when it is missing)."""
+    n = height * width
+    if not (x.shape[0] == y.shape[0] == z.shape[0]) or any(
+            a.shape[0] not in (0, n) for a in (count, mx, mn, sm)) or not res > 0:
+        raise ValueError("accumulate: arrays do not match the grid")
     return _accumulate_nb(x, y, z, left, bottom, res, height, width, eps, count, mx, mn, sm)
 
 
@@ -86,25 +91,25 @@ def _raster_triangles_py(px, py, pz, tri, max_edge, left, top, res, height, widt
                     or (cx - ax) ** 2 + (cy - ay) ** 2 > me2):
                 continue
         det = (by - cy) * (ax - cx) + (cx - bx) * (ay - cy)
-        if det == 0.0:
+        if det == 0.0 or not (abs(det) < np.inf):  # degenerate, or a coordinate not a number
             continue
         xmin = min(ax, bx, cx)
         xmax = max(ax, bx, cx)
         ymin = min(ay, by, cy)
         ymax = max(ay, by, cy)
-        # columns whose centre x = left + (j + 0.5) res lies in [xmin, xmax]
-        j0 = int(np.ceil((xmin - left) / res - 0.5))
-        j1 = int(np.floor((xmax - left) / res - 0.5))
-        i0 = int(np.ceil((top - ymax) / res - 0.5))
-        i1 = int(np.floor((top - ymin) / res - 0.5))
-        if j0 < 0:
-            j0 = 0
-        if i0 < 0:
-            i0 = 0
-        if j1 > width - 1:
-            j1 = width - 1
-        if i1 > height - 1:
-            i1 = height - 1
+        # columns whose centre x = left + (j + 0.5) res lies in [xmin, xmax]; clamped as floats
+        # first, so NaN, inf or 1e300 coordinates never become an index outside ``out``
+        fj0 = np.ceil((xmin - left) / res - 0.5)
+        fj1 = np.floor((xmax - left) / res - 0.5)
+        fi0 = np.ceil((top - ymax) / res - 0.5)
+        fi1 = np.floor((top - ymin) / res - 0.5)
+        if not (fj0 <= fj1 and fi0 <= fi1 and fj1 >= 0.0 and fi1 >= 0.0
+                and fj0 <= width - 1.0 and fi0 <= height - 1.0):
+            continue  # no cell centre inside, or not a number
+        j0 = int(max(fj0, 0.0))
+        i0 = int(max(fi0, 0.0))
+        j1 = int(min(fj1, width - 1.0))
+        i1 = int(min(fi1, height - 1.0))
         drawn += 1
         eps = -1e-9 * abs(det)
         for i in range(i0, i1 + 1):
@@ -122,7 +127,7 @@ def _raster_triangles_py(px, py, pz, tri, max_edge, left, top, res, height, widt
                     continue
                 v = (l1 * az + l2 * bz + l3 * cz) / d
                 cur = out[i, j]
-                if not (cur >= v):  # also when cur is NaN
+                if v == v and not (cur >= v):  # also when cur is NaN; never write a NaN
                     out[i, j] = v
     return drawn
 
@@ -132,4 +137,8 @@ _raster_triangles_nb = _jit(_raster_triangles_py)
 
 def raster_triangles(px, py, pz, tri, max_edge, left, top, res, height, width, out) -> int:
     """Compiled triangle rasteriser (numba only; callers use the numpy path when missing)."""
+    if tri.size and (tri.min() < 0 or tri.max() >= min(px.shape[0], py.shape[0], pz.shape[0])):
+        raise ValueError("raster_triangles: a triangle refers to a point that does not exist")
+    if out.shape != (height, width):
+        raise ValueError(f"raster_triangles: out is {out.shape}, expected {(height, width)}")
     return _raster_triangles_nb(px, py, pz, tri, max_edge, left, top, res, height, width, out)

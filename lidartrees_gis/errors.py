@@ -22,6 +22,10 @@ class CRSError(LidarTreesError, ValueError):
     """A coordinate reference system is missing, unknown or cannot be transformed."""
 
 
+class OutputError(LidarTreesError, OSError):
+    """An output cannot be written (read-only folder, no permission)."""
+
+
 class OutputExistsError(LidarTreesError, FileExistsError):
     """An output exists and overwriting was not allowed."""
 

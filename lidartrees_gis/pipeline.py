@@ -397,10 +397,9 @@ def grid_file(input, output, *, res="auto", stat="max", fill="none", a_srs=None,
     ``drop_class`` (noise, 7 and 18, by default) are left out. Returns a dict with the grid
     spec, point count and the output path.
     """
-    from .io.output import check_not_input, check_output
+    from .io.output import check_outputs
 
-    check_output(output, overwrite)
-    check_not_input(output, input)
+    check_outputs([(output, "OUTPUT")], (input,), overwrite)
     src = open_filtered(input, a_srs=a_srs, t_srs=t_srs, drop_class=drop_class,
                         keep_class=keep_class, **read_kw)
     prog = as_progress(progress)
@@ -442,12 +441,10 @@ def chm_file(input, output, *, res="auto", dtm="auto", chm="pitfree", fill="mean
     else lowest:5), pit-free CHM (Khosravipour et al. 2014), noise classes 7 and 18 dropped
     and isolated returns far above the canopy removed (see :func:`compute_surfaces`).
     """
-    from .io.output import check_not_input, check_output
+    from .io.output import check_outputs
 
-    for p, name in ((output, "OUTPUT"), (dsm_out, "-dsm_out"), (dtm_out, "-dtm_out")):
-        if p is not None:
-            check_output(p, overwrite, param=name)
-            check_not_input(p, input, param=name)
+    check_outputs([(output, "OUTPUT"), (dsm_out, "-dsm_out"), (dtm_out, "-dtm_out")], (input,),
+                  overwrite)
     src = open_filtered(input, a_srs=a_srs, t_srs=t_srs, drop_class=drop_class,
                         keep_class=keep_class, **read_kw)
     prog = as_progress(progress)
@@ -632,20 +629,13 @@ def trees_file(input, output, *, res="auto", params=None, dtm="auto", chm="pitfr
     smoothing and the adaptive window. With ``params.spacing`` (plantation mode) the planting
     grid is fitted and a ``gaps`` layer of missing trees and the stocking are written too.
     """
-    from .io.output import check_output
+    from .io.output import check_outputs
     from .io.vector import write_gpkg
     from .trees import TreeParams
 
-    from .io.output import check_not_input
-
     p = params or TreeParams()
-    if not (overwrite or append):
-        check_output(output, False)
-    check_not_input(output, input)
-    for extra, name in ((png, "-png"), (csv, "-csv"), (chm_out, "-chm_out")):
-        if extra:
-            check_output(extra, overwrite, param=name)
-            check_not_input(extra, input, param=name)
+    check_outputs([(output, "OUTPUT", overwrite or append), (png, "-png"), (csv, "-csv"),
+                   (chm_out, "-chm_out")], (input,), overwrite)
     prog = as_progress(progress)
     arr, spec, source, built = load_chm(input, res=res, dtm=dtm, chm=chm, fill=fill,
                                         outliers=outliers, drop_class=drop_class,
@@ -714,10 +704,10 @@ def compare_file(input, output, *, res="auto", dtm="auto", chm="pitfree", fill="
     """Seed 000's Table 1 on one input: ten configurations -> trees, mean height, mean crown
     diameter (CSV and a Markdown table). Tops are 8-neighbour maxima as in the seed
     (``strict=True``: strictly higher than all 8 neighbours, the seed's literal rule)."""
-    from .io.output import atomic_output, check_output
+    from .io.output import atomic_output, check_outputs
     from .trees import TreeParams, detect_trees
 
-    check_output(output, overwrite)
+    check_outputs([(output, "OUTPUT")], (input,), overwrite)
     prog = as_progress(progress)
     arr, spec, _, info = load_chm(input, res=res, dtm=dtm, chm=chm, fill=fill, drop_class=drop_class,
                                keep_class=keep_class, a_srs=a_srs, t_srs=t_srs,
@@ -804,17 +794,20 @@ def ground_file(input, output, *, dtm_out=None, res="auto", params=None, overwri
     """Classify ground (class 2) with Kraus & Pfeifer robust interpolation; write the classified
     LAS/LAZ and optionally the DTM GeoTIFF (linear TIN of the ground points, cell sqrt(1/n))."""
     from .io.lasout import write_classified
-    from .io.output import check_output
+    from .io.output import check_outputs
 
-    check_output(output, overwrite)
-    if dtm_out:
-        check_output(dtm_out, overwrite, param="-dtm")
+    check_outputs([(output, "OUTPUT"), (dtm_out, "-dtm")], (input,), overwrite)
     src = open_input(input, a_srs=a_srs, t_srs=t_srs, **read_kw)
     prog = as_progress(progress)
     pts, ground = ground_points(src, params, SubProgress(prog, 0, 0.7))
     check_cancel(prog)
     cls = ground_classes(pts.classification, ground, reclassify)
-    write_classified(output, src, cls, overwrite=overwrite)
+    from .ground import KrausPfeifer
+
+    meta = {"command": "ground", "tool": f"lidartrees_gis {__version__}", "input": str(src.path),
+            "crs": crs_label(src.crs), "reclassify": reclassify,
+            **(params or KrausPfeifer()).as_dict(), **_repro_meta(src)}
+    write_classified(output, src, cls, overwrite=overwrite, metadata=meta)
     out = {"output": str(output), "points": len(pts), "ground": int((cls == 2).sum()),
            "ground_share": float((cls == 2).mean()), "kept_classes": int((~np.isin(cls, (1, 2))).sum()),
            "crs": crs_label(src.crs), "reprojection": _repro_report(src)}
@@ -825,8 +818,6 @@ def ground_file(input, output, *, dtm_out=None, res="auto", params=None, overwri
         prog.update(0.85, "DTM")
         dtm = dtm_from_ground(pts, cls == 2, spec)
         check_cancel(prog)
-        from .ground import KrausPfeifer
-
         write_geotiff(dtm_out, dtm, spec, overwrite=overwrite, creation_options=creation_options,
                       tags=_tags("ground", src, {"res": r, **(params or KrausPfeifer()).as_dict()}),
                       description="terrain height (m)")
@@ -947,11 +938,16 @@ def dtm_quality_file(input, outdir, *, g="-4:1:0.5", w="1:4:0.5", res="auto", pa
 
     out = Path(outdir)
     csv_path = out / "dtm_quality.csv"
-    for pth in (csv_path, out / "recommended_dtm.tif"):
-        if pth.exists() and not overwrite:
-            from .errors import OutputExistsError
+    from .io.output import check_outputs
 
-            raise OutputExistsError(f"{pth}: output exists; use -overwrite to replace it")
+    if out.is_dir():
+        check_outputs([(csv_path, "OUTPUT"), (out / "recommended_dtm.tif", "OUTPUT")], (input,),
+                      overwrite)
+    else:  # the folder is made at the end: the nearest existing folder above must take it
+        anc = out.absolute()
+        while not anc.exists():
+            anc = anc.parent
+        check_outputs([(anc / out.name, "OUTPUT")], (), False)
     gs, ws = parse_range(g, "-g"), parse_range(w, "-w")
     combos = [(gg, ww) for gg in gs for ww in ws]
     if len(combos) < 3:
@@ -1064,7 +1060,7 @@ def stem_file(input, prefix, *, params=None, overwrite=False, a_srs=None, t_srs=
     from shapely.geometry import Point
 
     from .io.lasout import write_points
-    from .io.output import atomic_output, check_output
+    from .io.output import atomic_output, check_outputs
     from .io.vector import write_gpkg
     from .tls.stem import dmax_filter
 
@@ -1072,8 +1068,7 @@ def stem_file(input, prefix, *, params=None, overwrite=False, a_srs=None, t_srs=
     paths = {k: Path(pre + suffix) for k, suffix in (
         ("trunk", "_trunk.laz"), ("csv", "_sections.csv"), ("gpkg", "_sections.gpkg"),
         ("summary", "_summary.json"), ("png", "_taper.png"))}
-    for k, pth in paths.items():
-        check_output(pth, overwrite, param="OUTPUT_PREFIX")
+    check_outputs([(pth, "OUTPUT_PREFIX") for pth in paths.values()], (input,), overwrite)
     prog = as_progress(progress)
     src = open_input(input, a_srs=a_srs, t_srs=t_srs, **read_kw)
     pts = src.read_all(SubProgress(prog, 0, 0.2))
@@ -1137,16 +1132,15 @@ def profile_file(input, output, *, bin=0.05, sigma=0.3, overwrite=False, a_srs=N
     import json
 
     from .io.lasout import write_points
-    from .io.output import atomic_output, check_output
+    from .io.output import atomic_output, check_outputs
     from .tls.profile import segment_profile
 
     out = Path(output)
     stem = out.with_suffix("")
     paths = {"json": Path(str(stem) + "_boundaries.json"), "csv": Path(str(stem) + "_boundaries.csv"),
              "png": Path(str(stem) + "_profile.png")}
-    check_output(out, overwrite)
-    for pth in paths.values():
-        check_output(pth, overwrite)
+    check_outputs([(out, "OUTPUT")] + [(pth, "OUTPUT") for pth in paths.values()], (input,),
+                  overwrite)
     prog = as_progress(progress)
     src = open_input(input, a_srs=a_srs, t_srs=t_srs, **read_kw)
     pts = src.read_all(SubProgress(prog, 0, 0.5))

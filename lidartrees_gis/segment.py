@@ -22,7 +22,17 @@ def _jit(fn):
 def _prepare(chm, rows, cols):
     """CHM with NaN as -inf, an empty label grid, and the seed cells as int64 arrays."""
     a = np.where(np.isnan(chm), -np.inf, np.asarray(chm, dtype=np.float64))
-    return a, np.zeros(a.shape, np.int64), np.asarray(rows, np.int64), np.asarray(cols, np.int64)
+    rows = np.asarray(rows, np.int64).ravel()
+    cols = np.asarray(cols, np.int64).ravel()
+    if rows.shape != cols.shape:
+        raise InputError(f"tree tops: {rows.size} rows but {cols.size} columns")
+    # the compiled kernels index without bounds checks: every seed must be a cell of the CHM
+    bad = (rows < 0) | (rows >= a.shape[0]) | (cols < 0) | (cols >= a.shape[1])
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        raise InputError(f"tree tops: {int(bad.sum())} top(s) outside the {a.shape[0]} x "
+                         f"{a.shape[1]} CHM (first: row {rows[k]}, column {cols[k]})")
+    return a, np.zeros(a.shape, np.int64), rows, cols
 
 
 # ---------------------------------------------------------------------------------------------

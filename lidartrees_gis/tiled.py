@@ -323,7 +323,7 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
     from . import __version__
     from .crs import crs_label
     from .grid import GridSpec
-    from .io.output import atomic_output, check_not_input, check_output
+    from .io.output import atomic_output, check_outputs
     from .progress import SubProgress
     from .trees import TreeParams
 
@@ -334,15 +334,11 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
     out_path = Path(output)
     if out_path.suffix.lower() != ".gpkg":
         raise InputError(f"OUTPUT: {out_path}: expected a .gpkg file name")
-    if not (overwrite or append):
-        check_output(output, False)
-    if chm_out:
-        check_output(chm_out, overwrite, param="-chm_out")
+    outputs = [(output, "OUTPUT", overwrite or append), (chm_out, "-chm_out")]
+    check_outputs(outputs, (), overwrite)
     prog = as_progress(progress)
     catalog = Catalog.open(input, a_srs=a_srs, **(read_kw or {}))
-    for f in catalog.files:
-        check_not_input(output, f)
-        check_not_input(chm_out, f, param="-chm_out")
+    check_outputs(outputs, catalog.files, overwrite)
     opts = _options(kw)
     prog.update(0.01, "area parameters")
     p, opts, tiles, buf = plan(catalog, p, opts, tile_size, buffer)
@@ -462,14 +458,13 @@ def chm_tiled(input, output, *, tile_size=None, buffer=None, workers=None, sched
 
     from .crs import crs_label
     from .grid import GridSpec
-    from .io.output import atomic_output, check_output
+    from .io.output import atomic_output, check_outputs
     from .progress import SubProgress
 
-    check_output(output, overwrite)
-    if dtm_out:
-        check_output(dtm_out, overwrite, param="-dtm_out")
+    check_outputs([(output, "OUTPUT"), (dtm_out, "-dtm_out")], (), overwrite)
     prog = as_progress(progress)
     catalog = Catalog.open(input, a_srs=a_srs, **(read_kw or {}))
+    check_outputs([(output, "OUTPUT"), (dtm_out, "-dtm_out")], catalog.files, overwrite)
     opts = _options(kw)
     from .trees import TreeParams
 

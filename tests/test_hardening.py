@@ -286,3 +286,135 @@ def test_t_srs_states_and_stores_the_operation(tmp_path, capsys):
     meta = pyogrio.read_info(tmp_path / "t.gpkg", layer="tree_tops")["layer_metadata"]
     assert "SAD69 to SIRGAS 2000" in meta["reprojection_operation"]
     assert float(meta["reprojection_accuracy_m"]) > 0
+
+
+def test_compiled_kernels_never_index_outside_their_arrays():
+    """NaN, inf and 1e300 coordinates (a LAS scale of 1e300 once wrote outside the grid) are
+    counted as outside, in the compiled and in the pure-Python kernel alike; seeds outside the
+    CHM are refused before a kernel runs."""
+    from lidartrees_gis import _accel
+    from lidartrees_gis.errors import InputError
+    from lidartrees_gis.segment import region_growing, treex_growing
+
+    bad = [np.inf, -np.inf, np.nan, 1e300, -1e300, 1e19, 9.2e18]
+    x = np.array([0.5] + bad + [0.5] * len(bad))
+    y = np.array([0.5] + [0.5] * len(bad) + bad)
+    z = np.arange(x.size, dtype=float)
+    results = []
+    kernels = [_accel._accumulate_py] + ([_accel.accumulate] if _accel.HAVE_NUMBA else [])
+    for fn in kernels:
+        count = np.zeros(4, np.int64)
+        mx = np.full(4, -np.inf)
+        guard = np.full(8, 7.0)  # sentinel after the grid: must stay untouched
+        mn, sm = np.full(4, np.inf), np.zeros(4)
+        outside = fn(x, y, z, 0.0, 0.0, 1.0, 2, 2, 1e-9, count, mx, mn, sm)
+        assert outside == 2 * len(bad) and count.sum() == 1 and count[2] == 1  # row 1, col 0
+        assert mx[2] == 0.0 and np.isinf(mx[[0, 1, 3]]).all() and (guard == 7).all()
+        results.append((count.copy(), mx.copy()))
+    for c, m in results[1:]:
+        assert (c == results[0][0]).all() and np.array_equal(m, results[0][1])
+
+    out = np.full((3, 3), np.nan)
+    px = np.array([0.0, 3.0, 0.0, 1e300, np.nan, -np.inf])
+    py = np.array([0.0, 0.0, 3.0, 1e300, 1.0, 2.0])
+    pz = np.ones(6)
+    tri = np.array([[0, 1, 2], [0, 1, 3], [0, 4, 2], [5, 1, 2]], np.int64)
+    for fn in [_accel._raster_triangles_py] + ([_accel.raster_triangles] if _accel.HAVE_NUMBA else []):
+        o = out.copy()
+        fn(px, py, pz, tri, 0.0, 0.0, 3.0, 1.0, 3, 3, o)
+        assert np.nansum(o) == 6  # the first triangle covers the 6 centres on or below its diagonal
+    if _accel.HAVE_NUMBA:
+        with pytest.raises(ValueError, match="does not exist"):
+            _accel.raster_triangles(px, py, pz, np.array([[0, 1, 99]], np.int64), 0.0, 0.0, 3.0,
+                                    1.0, 3, 3, out.copy())
+    chm = np.full((5, 5), 10.0)
+    for fn in (lambda r, c: region_growing(chm, r, c),
+               lambda r, c: treex_growing(chm, r, c, 1.0)):
+        for r, c in (([5], [0]), ([0], [-1]), ([2**40], [0])):
+            with pytest.raises(InputError, match="outside the 5 x 5 CHM"):
+                fn(np.array(r), np.array(c))
+        assert fn(np.array([2]), np.array([2])).max() == 1
+
+
+def test_decimal_commas_with_comma_delimiters_are_warned(tmp_path, capsys):
+    rng = np.random.default_rng(1)
+    rows = [(500_000 + rng.integers(0, 40), rng.integers(0, 100), 7_000_000 + rng.integers(0, 40),
+             rng.integers(0, 100), 20 + rng.integers(0, 9), rng.integers(0, 100)) for _ in range(60)]
+    f = tmp_path / "pairs.csv"
+    f.write_text("".join(",".join(str(v) for v in r) + "\n" for r in rows))
+    assert main(["info", str(f), "-a_srs", "EPSG:31984", "-q"]) == 0
+    warn = [ln for ln in capsys.readouterr().err.splitlines() if ": warning: " in ln]
+    assert len(warn) == 1 and "50 of the first 50 lines look like decimal commas" in warn[0]
+    # varying field counts (a value without decimals) are caught too
+    g = tmp_path / "ragged.csv"
+    g.write_text("".join(f"5000{i % 10}0,5,70000{i % 10}0,25,3{i % 7}" + (",1\n" if i % 3 else "\n")
+                         for i in range(40)))
+    main(["info", str(g), "-a_srs", "EPSG:31984", "-q"])
+    assert "look like decimal commas" in capsys.readouterr().err
+    # a real integer CSV (x, y, z, intensity, class, return) is not warned
+    h = tmp_path / "ints.csv"
+    h.write_text("".join(f"{500000 + i},{7000000 + i},{20 + i % 9},{i % 255},2,1\n" for i in range(40)))
+    assert main(["info", str(h), "-a_srs", "EPSG:31984", "-q"]) == 0
+    assert "warning" not in capsys.readouterr().err
+
+
+def _read_only_folder():
+    """A folder nobody may create files in, root included (sysfs); None where there is none."""
+    import os
+    import tempfile
+
+    for d in ("/sys", "/proc/self"):
+        if os.path.isdir(d):
+            try:
+                fd, p = tempfile.mkstemp(dir=d)
+            except OSError:
+                return d
+            os.close(fd)
+            os.unlink(p)
+    return None
+
+
+def test_every_output_is_checked_before_any_is_written(small_las, tmp_path, capsys):
+    ro = _read_only_folder()
+    if ro is None:
+        pytest.skip("no read-only folder on this machine")
+    gpkg = tmp_path / "t.gpkg"
+    # the GeoPackage could be written, the PNG could not: nothing is written, nothing computed
+    assert main(["trees", str(small_las), str(gpkg), "-png", f"{ro}/q.png", "-q"]) == 1
+    _one_error_line(capsys, "-png", f"cannot write in folder {ro}")
+    assert not gpkg.exists() and list(tmp_path.iterdir()) == [small_las]
+    assert main(["chm", str(small_las), f"{ro}/c.tif", "-q"]) == 1
+    _one_error_line(capsys, "cannot write in folder")
+    # two outputs of one run may not be the same file
+    assert main(["chm", str(small_las), str(tmp_path / "c.tif"), "-dtm_out",
+                 str(tmp_path / "c.tif"), "-q"]) == 1
+    _one_error_line(capsys, "-dtm_out", "is also the OUTPUT output")
+    assert list(tmp_path.iterdir()) == [small_las]
+
+
+def test_ground_stores_the_t_srs_operation_in_the_las(tmp_path, capsys):
+    from lidartrees_gis.io.lasout import read_provenance
+    from lidartrees_gis.synthetic import make_stand, write_xyz_seed_dialect
+
+    from lidartrees_gis.synthetic import StandParams
+
+    pts, _ = make_stand(StandParams(width=30, height=30))
+    f = tmp_path / "s.xyz"
+    write_xyz_seed_dialect(f, pts)
+    out = tmp_path / "g.laz"
+    assert main(["ground", str(f), str(out), "-a_srs", "SAD69 24K", "-t_srs", "EPSG:31984"]) == 0
+    assert any(ln.startswith("reprojection:") for ln in capsys.readouterr().err.splitlines())
+    meta = read_provenance(out)
+    assert meta["command"] == "ground" and meta["g"] == -2.0 and meta["w"] == 2.5
+    assert "SAD69" in meta["reprojection_source_crs"]
+    assert "SAD69 to SIRGAS 2000" in meta["reprojection_operation"]
+    assert float(meta["reprojection_accuracy_m"]) > 0
+    import laspy
+
+    with laspy.open(str(out)) as fh:
+        assert fh.header.parse_crs().to_epsg() == 31984
+    # a LAS written from a LAS keeps one provenance record, the newest
+    out2 = tmp_path / "g2.laz"
+    assert main(["ground", str(out), str(out2), "-reclassify", "-q"]) == 0
+    meta2 = read_provenance(out2)
+    assert meta2["reclassify"] is True and "reprojection_operation" not in meta2

@@ -9,12 +9,43 @@ from ..errors import InputError
 from .output import atomic_output
 
 
-def write_classified(path, src, classification, *, overwrite=False, extra=None) -> None:
+#: user id of the VLR that holds lidartrees' provenance (JSON text) in the LAS files it writes
+PROVENANCE_VLR = ("lidartrees", 1)
+
+
+def provenance_vlr(metadata: dict):
+    """A LAS VLR holding ``metadata`` as JSON (command, parameters, ``-t_srs`` source CRS,
+    operation and accuracy); read it back with :func:`read_provenance`."""
+    import json
+
+    import laspy
+
+    body = json.dumps({k: v for k, v in metadata.items() if v is not None}, default=str,
+                      ensure_ascii=True).encode("ascii")
+    return laspy.VLR(user_id=PROVENANCE_VLR[0], record_id=PROVENANCE_VLR[1],
+                     description="lidartrees_gis provenance", record_data=body)
+
+
+def read_provenance(path) -> dict:
+    """The provenance a lidartrees LAS/LAZ output holds ({} when it holds none)."""
+    import json
+
+    import laspy
+
+    with laspy.open(str(path)) as fh:
+        for v in fh.header.vlrs:
+            if (v.user_id, v.record_id) == PROVENANCE_VLR:
+                return json.loads(bytes(v.record_data).decode("ascii"))
+    return {}
+
+
+def write_classified(path, src, classification, *, overwrite=False, extra=None,
+                     metadata=None) -> None:
     """Write the points of ``src`` (a PointSource) to LAS/LAZ with a new classification.
 
     A LAS/LAZ input is copied with every attribute kept; an XYZ input becomes LAS 1.4 point
     format 6 with 1 mm scales and the source CRS. ``extra`` maps name -> array for extra
-    dimensions (e.g. a section id).
+    dimensions (e.g. a section id). ``metadata`` (a dict) is stored as a provenance VLR.
     """
     import laspy
 
@@ -43,6 +74,10 @@ def write_classified(path, src, classification, *, overwrite=False, extra=None) 
         setattr(las, name, arr)
     from .. import __version__
 
+    if metadata:
+        las.header.vlrs = [v for v in las.header.vlrs
+                           if (getattr(v, "user_id", ""), getattr(v, "record_id", 0)) != PROVENANCE_VLR]
+        las.header.vlrs.append(provenance_vlr(metadata))
     las.header.generating_software = f"lidartrees_gis {__version__}"[:32]
     sysid = las.header.system_identifier
     if isinstance(sysid, bytes):

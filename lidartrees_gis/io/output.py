@@ -7,7 +7,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from ..errors import InputError, OutputExistsError
+from ..errors import InputError, OutputError, OutputExistsError
 
 
 def check_output(path, overwrite: bool = False, *, param: str = "OUTPUT") -> Path:
@@ -20,7 +20,35 @@ def check_output(path, overwrite: bool = False, *, param: str = "OUTPUT") -> Pat
     parent = p.parent if str(p.parent) else Path(".")
     if not parent.exists():
         raise InputError(f"{param}: folder {parent} does not exist")
+    try:  # a real probe (os.access says yes to root on a read-only file system)
+        fd, probe = tempfile.mkstemp(prefix=".lidartrees-probe.", dir=parent)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        raise OutputError(f"{param}: cannot write in folder {parent} "
+                          f"({exc.strerror or type(exc).__name__})") from None
     return p
+
+
+def check_outputs(outputs, inputs=(), overwrite: bool = False) -> None:
+    """Check every output of a run before any is written: each one as :func:`check_output`
+    and :func:`check_not_input`, and no two the same file.
+
+    ``outputs`` is a sequence of ``(path, param)`` or ``(path, param, overwrite)`` (e.g. a
+    GeoPackage appended to); ``None`` paths are skipped.
+    """
+    seen = {}
+    for item in outputs:
+        path, param = item[:2]
+        if path is None:
+            continue
+        check_output(path, item[2] if len(item) > 2 else overwrite, param=param)
+        check_not_input(path, *inputs, param=param)
+        key = Path(path).resolve()
+        if key in seen:
+            raise InputError(f"{param}: {path} is also the {seen[key]} output; give each output "
+                             "its own file")
+        seen[key] = param
 
 
 def check_not_input(output, *inputs, param: str = "OUTPUT") -> None:

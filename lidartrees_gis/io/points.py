@@ -9,6 +9,7 @@ from __future__ import annotations
 import gzip
 import io
 import re
+import warnings
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,6 +22,7 @@ from ..errors import CRSError, InputError, LidarTreesError, ReadError
 from ..progress import as_progress, check_cancel
 
 LAS_SUFFIXES = (".las", ".laz")
+_INT_TOKEN = re.compile(r"^[+-]?[0-9]+$")
 #: a plain ASCII decimal number (what the XYZ readers accept)
 _ASCII_NUMBER = re.compile(r"[+-]?(?:(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?|nan|inf|infinity)\Z",
                            re.IGNORECASE)
@@ -171,6 +173,31 @@ def parse_columns(spec, ncols: int | None = None) -> tuple:
     return tuple(out)
 
 
+def _warn_comma_pairs(path, lines) -> None:
+    """Warn when a comma-delimited file looks like decimal commas written with comma delimiters
+    (``412955,63,7952505,99,25,46``): every field an integer, and either the field count varies
+    between lines, or short integers (the decimals) follow long ones in columns 1 and 3."""
+    rows = [[t.strip() for t in ln.split(",")] for ln in lines]
+    data = [r for r in rows if r and all(_INT_TOKEN.match(t) for t in r)]
+    if len(data) < max(1, len(rows) - 1):
+        return
+    counts = {len(r) for r in data}
+    digits = lambda t: len(t.lstrip("+-"))  # noqa: E731
+    pairs = [r for r in data if len(r) >= 6 and len(r) % 2 == 0 and digits(r[0]) >= 5
+             and digits(r[1]) <= 4 and digits(r[3]) <= 4 and digits(r[2]) > digits(r[3])]
+    if len(counts) == 1 and len(pairs) < len(data):
+        return
+    from ..errors import DataWarning
+
+    r = data[0]
+    looks = len(pairs) if len(counts) == 1 else sum(len(x) != len(data[0]) for x in data) + 1
+    warnings.warn(DataWarning(
+        f"{path}: {looks:,} of the first {len(rows):,} lines look like decimal commas written "
+        f"with comma delimiters ({lines[-1][:60]!r}); they are read as x={r[0]}, y={r[1]}, "
+        f"z={r[2]}. Re-export with tabs or semicolons between the fields (both are read with "
+        "decimal commas), or name the columns with --columns if this is right"), stacklevel=2)
+
+
 def sniff_xyz(path, *, delimiter=None, decimal_comma=None, header=None, columns=None,
               sample_lines: int = 50) -> XYZDialect:
     """Detect an XYZ file's delimiter, decimal mark, header and columns.
@@ -226,6 +253,8 @@ def sniff_xyz(path, *, delimiter=None, decimal_comma=None, header=None, columns=
     if numeric < max(1, (len(lines) - 1) / 2):
         raise InputError(f"{path}: only {numeric} of the first {len(lines)} lines hold numbers; "
                          "this is not point data (XYZ text has x y z per line)")
+    if delim == "," and not decimal_comma and columns is None:
+        _warn_comma_pairs(path, lines)
     first = [t.strip() for t in _split(lines[0], delim)]
     if header is None:
         header = not all(_is_number(t, decimal_comma) for t in first if t)
@@ -384,7 +413,6 @@ class PointSource:
                     prog.update(done / total, "reading points")
                     yield chunk
             if out_hdr:
-                import warnings
 
                 from ..errors import DataWarning
 
@@ -585,7 +613,6 @@ def _check_las_header(path, h, count):
         end = evlr if evlr > int(h.offset_to_point_data) else size
         held = (end - int(h.offset_to_point_data)) // rec
         if held > count:
-            import warnings
 
             from ..errors import DataWarning
 
