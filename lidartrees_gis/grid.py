@@ -386,12 +386,14 @@ class LowestPoints:
         if not idx.size:
             return
         self.count += np.bincount(idx, minlength=self.count.size)
-        order = np.lexsort((z, idx))
+        # ties in z go to the lowest x, then y: the same point whatever the order of the file
+        order = np.lexsort((y, x, z, idx))
         first = np.ones(order.size, bool)
         first[1:] = idx[order][1:] != idx[order][:-1]
         sel = order[first]
         k = idx[sel]
-        better = z[sel] < self.z[k]
+        zs, xs, cz, cx = z[sel], x[sel], self.z[k], self.x[k]
+        better = (zs < cz) | ((zs == cz) & ((xs < cx) | ((xs == cx) & (y[sel] < self.y[k]))))
         k, sel = k[better], sel[better]
         self.z[k], self.x[k], self.y[k] = z[sel], x[sel], y[sel]
 
