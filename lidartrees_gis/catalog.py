@@ -1,7 +1,8 @@
 """Many point files as one acquisition, cut into tiles with buffers (lidR's LAScatalog idea).
 
-* :func:`expand_inputs` — files, folders, globs, text lists (one path a line) and virtual point
-  clouds (``.vpc``, the STAC ItemCollection QGIS and PDAL write) to a list of files;
+* :func:`expand_inputs` — files, folders, globs, text lists (one path a line), virtual point
+  clouds (``.vpc``, the STAC ItemCollection QGIS and PDAL write) and Entwine Point Tile indexes
+  (``ept.json``, what QGIS 3.22 builds for a loaded point cloud) to a list of files;
 * :class:`Catalog` — the files with their bounds, point counts and CRS (from LAS headers; XYZ
   files are scanned once);
 * :func:`make_tiles` — square tiles aligned to multiples of the tile size, each with a core (the
@@ -43,10 +44,49 @@ def _vpc_files(path: Path) -> list:
     return out
 
 
+def is_ept(path) -> bool:
+    """True for an Entwine Point Tile index (``ept.json``), what QGIS makes of a point cloud."""
+    return Path(str(path)).name.lower() == "ept.json"
+
+
+def _ept_doc(path: Path) -> dict:
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise ReadError(f"{path}: cannot read as an Entwine Point Tile index (JSON): {exc}") from None
+    if not isinstance(doc, dict) or "schema" not in doc:
+        raise InputError(f"{path}: not an Entwine Point Tile index (no schema)")
+    return doc
+
+
+def _ept_files(path: Path) -> list:
+    """The data files of an EPT index: every point is in exactly one node, so all the nodes
+    together are the whole cloud."""
+    doc = _ept_doc(path)
+    if doc.get("dataType") != "laszip":
+        raise InputError(f"{path}: EPT data type {doc.get('dataType')!r} is not read; only "
+                         "'laszip' (LAZ nodes) is. Use the original LAS/LAZ file instead")
+    files = sorted((path.parent / "ept-data").glob("*.laz"))
+    if not files:
+        raise InputError(f"{path}: the EPT index has no data files in ept-data/")
+    return files
+
+
+def ept_crs(path):
+    """The CRS an EPT index states (``srs.wkt`` or ``srs.authority:horizontal``), or None."""
+    srs = _ept_doc(Path(str(path))).get("srs") or {}
+    if srs.get("wkt"):
+        return srs["wkt"]
+    if srs.get("authority") and srs.get("horizontal"):
+        return f"{srs['authority']}:{srs['horizontal']}"
+    return None
+
+
 def expand_inputs(inputs) -> list:
     """Point files named by ``inputs`` (a path or a list of them): files, folders (their point
     files), glob patterns, ``.txt``/``.lst`` lists of paths (one per line, relative to the
-    list) and ``.vpc`` virtual point clouds. Order is kept; duplicates are dropped."""
+    list), ``.vpc`` virtual point clouds and ``ept.json`` Entwine Point Tile indexes (their
+    LAZ nodes). Order is kept; duplicates are dropped."""
     items = [inputs] if isinstance(inputs, (str, Path)) else list(inputs)
     out = []
     for it in items:
@@ -64,6 +104,8 @@ def expand_inputs(inputs) -> list:
             out += found
         elif p.suffix.lower() == ".vpc":
             out += _vpc_files(p)
+        elif is_ept(p) and p.is_file():
+            out += _ept_files(p)
         elif p.suffix.lower() in (".lst",) or (p.suffix.lower() == ".txt" and _is_list(p)):
             base = p.parent
             for line in p.read_text(encoding="utf-8").splitlines():
@@ -116,6 +158,9 @@ class Catalog:
         from .io.points import open_points
 
         files = expand_inputs(inputs)
+        if a_srs is None:  # EPT nodes often hold no CRS; the index states it
+            items = [inputs] if isinstance(inputs, (str, Path)) else list(inputs)
+            a_srs = next((ept_crs(i) for i in items if is_ept(i) and Path(str(i)).is_file()), None)
         bounds, counts, crs = [], [], None
         for f in files:
             src = open_points(f, a_srs=a_srs, **read_kw)
@@ -266,12 +311,12 @@ def is_catalog_input(inputs) -> bool:
         return len(list(inputs)) > 1 or any(is_catalog_input(i) for i in inputs)
     s = str(inputs)
     p = Path(s)
-    if p.is_dir() or p.suffix.lower() in (".vpc", ".lst"):
+    if p.is_dir() or p.suffix.lower() in (".vpc", ".lst") or is_ept(p):
         return True
     if any(ch in s for ch in "*?[") and not p.exists():
         return True
     return p.suffix.lower() == ".txt" and p.exists() and _is_list(p)
 
 
-__all__ = ["Catalog", "Tile", "TileSource", "expand_inputs", "make_tiles", "is_catalog_input",
+__all__ = ["Catalog", "Tile", "TileSource", "expand_inputs", "is_ept", "ept_crs", "make_tiles", "is_catalog_input",
            "LAS_SUFFIXES"]

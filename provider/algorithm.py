@@ -22,6 +22,7 @@ from qgis.core import (QgsProcessingAlgorithm, QgsProcessingContext,
                        QgsProcessingParameterDefinition, QgsProcessingParameterEnum,
                        QgsProcessingParameterFile, QgsProcessingParameterFileDestination,
                        QgsProcessingParameterFolderDestination, QgsProcessingParameterNumber,
+                       QgsProcessingParameterPointCloudLayer,
                        QgsProcessingParameterRasterDestination, QgsProcessingParameterString)
 
 from ._lib import commands, executable_error, find_executable, styles_dir
@@ -31,6 +32,11 @@ INPUT_FILTER = ("Point clouds and rasters (*.las *.laz *.xyz *.txt *.csv *.pts *
 #: style applied to each raster/vector output when loaded (command, parameter name) -> qml
 STYLES = {("chm", "output"): "chm.qml", ("chm", "dtm_out"): "dtm_hillshade.qml",
           ("trees", "chm_out"): "chm.qml", ("grid", "output"): None}
+#: commands whose INPUT can also be a point-cloud layer loaded in QGIS (INPUT_LAYER)
+LAYER_INPUT = ("info", "grid", "chm", "trees", "compare", "ground", "dtm-quality", "stem",
+               "profile")
+#: LAS/LAZ outputs (the default extension of a temporary output is the first one)
+LAS_OUTPUTS = {("ground", "output"), ("profile", "output")}
 GPKG_LAYERS = (("tree_tops", "tree_tops.qml"), ("crowns", "crowns.qml"))
 GAPS_LAYER = ("gaps", "gaps.qml")  # plantation mode (-spacing) only
 CASTRO = ("Castro, F. da C. e (2006). Segmentação de imagens geradas por laser scanning "
@@ -88,8 +94,10 @@ def run_cli(args, feedback):
             lines.put((tag, line.rstrip("\n")))
         lines.put((tag, None))
 
-    for stream, tag in ((proc.stdout, "out"), (proc.stderr, "err")):
-        threading.Thread(target=pump, args=(stream, tag), daemon=True).start()
+    threads = [threading.Thread(target=pump, args=(stream, tag), daemon=True)
+               for stream, tag in ((proc.stdout, "out"), (proc.stderr, "err"))]
+    for t in threads:
+        t.start()
     open_streams, last_err, msg = 2, "", None
     while open_streams:
         if feedback.isCanceled() and proc.poll() is None:
@@ -113,6 +121,10 @@ def run_cli(args, feedback):
         else:
             feedback.pushConsoleInfo(line)
     rc = proc.wait()
+    for t in threads:
+        t.join()
+    proc.stdout.close()  # the pipes are ours to close (ResourceWarning otherwise)
+    proc.stderr.close()
     return (-1 if feedback.isCanceled() else rc), last_err
 
 
@@ -165,6 +177,8 @@ def _label(p):
 def _output_kind(cmd_name, p):
     if p.kind == "outdir":
         return "folder"
+    if (cmd_name, p.name) in LAS_OUTPUTS:
+        return "las"
     if "png" in p.name:
         return "png"
     if cmd_name == "evaluate":
@@ -225,6 +239,9 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
             if p.advanced:
                 d.setFlags(d.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
             self.addParameter(d)
+            if p.kind == "input" and self._name in LAYER_INPUT:
+                self.addParameter(QgsProcessingParameterPointCloudLayer(
+                    "INPUT_LAYER", "…or a point-cloud layer loaded in QGIS", optional=True))
         if self._name == "info":
             self.addOutput(QgsProcessingOutputString("JSON", "Information (JSON)"))
             self.addOutput(QgsProcessingOutputNumber("POINTS", "Number of points"))
@@ -236,7 +253,8 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
         optional = not (p.positional or p.required)
         if p.kind == "input":
             return QgsProcessingParameterFile(pid, label, QgsProcessingParameterFile.File,
-                                              fileFilter=INPUT_FILTER)
+                                              fileFilter=INPUT_FILTER,
+                                              optional=self._name in LAYER_INPUT)
         if p.kind in ("output", "outdir"):
             kind = _output_kind(self._name, p)
             opt = not p.positional
@@ -246,6 +264,7 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
                 return QgsProcessingParameterRasterDestination(pid, label, optional=opt,
                                                                createByDefault=not opt)
             filt = {"gpkg": "GeoPackage (*.gpkg)", "csv": "CSV (*.csv)", "png": "PNG (*.png)",
+                    "las": "LAZ (*.laz);;LAS (*.las)",
                     "json": "JSON report (*.json);;Matched pairs CSV (*.csv)"}[kind]
             return QgsProcessingParameterFileDestination(pid, label, filt, optional=opt,
                                                          createByDefault=not opt)
@@ -268,17 +287,17 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
 
     def _value(self, p, parameters, context):
         pid = p.name.upper()
+        if p.kind == "input":
+            return self._input_path(parameters, pid, context)
         if pid not in parameters or parameters[pid] is None:
             return p.default if p.kind != "output" else None
-        if p.kind == "input":
-            return self.parameterAsFile(parameters, pid, context)
         if p.kind in ("output", "outdir"):
             kind = _output_kind(self._name, p)
             if kind == "folder":
                 folder = self.parameterAsString(parameters, pid, context) or None
                 if folder and p.name == "prefix":  # the CLI takes a file prefix inside it
                     os.makedirs(folder, exist_ok=True)
-                    base = os.path.splitext(os.path.basename(self.parameterAsFile(
+                    base = os.path.splitext(os.path.basename(self._input_path(
                         parameters, "INPUT", context)))[0] or "tree"
                     return os.path.join(folder, base)
                 return folder
@@ -304,6 +323,27 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
             return [t for t in s.replace(";", " ").split() if t] or None
         s = self.parameterAsString(parameters, pid, context)
         return s if s != "" else p.default
+
+    def _input_path(self, parameters, pid, context):
+        """The input file: INPUT, else the file behind the INPUT_LAYER point-cloud layer (its
+        LAS/LAZ, or the ept.json index QGIS built, which chm and trees read)."""
+        path = self.parameterAsFile(parameters, pid, context) if parameters.get(pid) else ""
+        if path:
+            return path
+        layer = None
+        if self._name in LAYER_INPUT and parameters.get("INPUT_LAYER") is not None:
+            layer = self.parameterAsPointCloudLayer(parameters, "INPUT_LAYER", context)
+            if layer is None and hasattr(parameters["INPUT_LAYER"], "source"):
+                layer = parameters["INPUT_LAYER"]  # a layer object QGIS could not open itself
+        if layer is None:
+            raise QgsProcessingException(
+                "Give the input: a point file (Input), or a point-cloud layer loaded in QGIS")
+        src = layer.source().split("|")[0]
+        if not os.path.isfile(src):
+            raise QgsProcessingException(
+                f"The point-cloud layer '{layer.name()}' is not a local file ({src}); export it "
+                "to LAS/LAZ first")
+        return src
 
     # -- run -------------------------------------------------------------------------------
     def processAlgorithm(self, parameters, context, feedback):  # noqa: N802

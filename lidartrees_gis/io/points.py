@@ -656,6 +656,10 @@ def open_points(path, *, a_srs=None, t_srs=None, delimiter=None, decimal_comma=N
     if chunk_size < 1:
         raise InputError(f"chunk_size: must be >= 1, got {chunk_size}")
     crs = parse_crs(a_srs) if a_srs else None
+    if path.name.lower() == "ept.json":
+        raise InputError(f"{path}: an Entwine Point Tile index (a point cloud QGIS has indexed): "
+                         "chm and trees read all its nodes; for this command give the LAS/LAZ "
+                         "file it was built from")
     _refuse_non_point_data(path)
     if path.suffix.lower() in LAS_SUFFIXES:
         import laspy
