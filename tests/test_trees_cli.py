@@ -53,7 +53,19 @@ def test_mixedconifer_acceptance(mixed):
             assert row.height <= zin.max() + 0.05
     summ = pyogrio.read_dataframe(out, layer="summary")
     assert int(summ.trees[0]) == len(tops)
-    assert (d / "q.png").stat().st_size > 1000
+    # the quick look: coloured CHM with legend, outlines, tops, coordinates, title with summary
+    from PIL import Image
+
+    png = Image.open(d / "q.png")
+    assert png.text["Title"] == "MixedConifer.laz"
+    assert f"{len(tops):,} trees" in png.text["Description"]
+    assert f"mean height {summ.mean_height[0]:.1f} m" in png.text["Description"]
+    rgb = np.asarray(png.convert("RGB")).astype(int)
+    r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
+    green = (g > r + 40) & (g > b + 20)  # the CHM classes (YlGn)
+    magenta = (r > 150) & (b > 90) & (g < 60)  # crown outlines
+    red = (r > 180) & (g < 70) & (b < 70)  # tree tops
+    assert green.mean() > 0.15 and magenta.sum() > 2000 and red.sum() > 3 * len(tops)
 
 
 def test_existing_gpkg_refused_then_append_and_nln(mixed, tmp_path):
