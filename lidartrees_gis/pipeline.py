@@ -571,11 +571,21 @@ def trees_frames(result: dict, spec: GridSpec, nln: str = ""):
     return {f"{nln}tree_tops": tops, f"{nln}crowns": crowns, **layers, f"{nln}summary": summary}
 
 
-def _nice_step(span: float, classes: int = 6) -> float:
-    """A round class width (1, 2 or 5 times a power of ten) giving about ``classes`` classes."""
-    raw = max(span, 1e-9) / classes
-    mag = 10 ** np.floor(np.log10(raw))
-    return float(min((m * mag for m in (1, 2, 5, 10) if m * mag >= raw), default=10 * mag))
+def nice_step(span: float, classes: int = 6) -> float:
+    """A round class width (1, 2 or 5 times a power of ten) that cuts ``span`` into the number
+    of classes nearest to ``classes`` (the more classes on a tie): the CHM legends of the quick
+    look and of the QGIS style. A 36 m CHM gets 5 m classes (8), a 27 m one 5 m classes (6)."""
+    span = max(float(span), 1e-9)
+    mag = 10.0 ** np.floor(np.log10(span / classes))
+    cands = [m * mag * f for f in (0.1, 1.0, 10.0) for m in (1.0, 2.0, 5.0)]
+    return float(min(cands, key=lambda st: (abs(math.ceil(span / st - 1e-9) - classes), st)))
+
+
+def round_length(length: float) -> float:
+    """The largest 1, 2 or 5 times a power of ten not above ``length`` (scale bars)."""
+    length = max(float(length), 1e-9)
+    mag = 10.0 ** np.floor(np.log10(length))
+    return float(max(m * mag for m in (1.0, 2.0, 5.0) if m * mag <= length * (1 + 1e-9)))
 
 
 def write_quicklook(path, chm, labels, rows, cols, *, spec=None, title=None, overwrite=False):
@@ -599,12 +609,11 @@ def write_quicklook(path, chm, labels, rows, cols, *, spec=None, title=None, ove
     h, w = a.shape
     finite = a[np.isfinite(a)]
     top = float(np.nanpercentile(finite, 99.5)) if finite.size else 1.0
-    step = _nice_step(max(top, 1.0), 6)
+    step = nice_step(max(top, 1.0), 6)
     bounds = np.arange(0.0, top + step, step)
     if bounds.size < 3:
         bounds = np.array([0.0, step, 2 * step])
-    cmap = plt.get_cmap("YlGn", bounds.size - 1).copy()
-    cmap.set_bad("#d9d9d9")
+    cmap = plt.get_cmap("YlGn", bounds.size - 1).with_extremes(bad="#d9d9d9")
     if spec is not None:
         left, right = spec.left, spec.left + w * spec.res
         bottom, topy = spec.top - h * spec.res, spec.top
@@ -646,7 +655,7 @@ def write_quicklook(path, chm, labels, rows, cols, *, spec=None, title=None, ove
                                     spec.crs is not None else ""), fontsize=8)
     ax.set_ylabel(f"y ({unit})", fontsize=8)
     span = (right - left) * 0.2
-    bar = _nice_step(span, 1) if span > 0 else 1.0
+    bar = round_length(span) if span > 0 else 1.0
     ax.add_artist(AnchoredSizeBar(ax.transData, bar, f"{bar:g} {unit}", "lower right", pad=0.4,
                                   color="black", frameon=True, size_vertical=max(bar / 40, px)))
     cax = fig.add_axes([0.85, 0.45, 0.025, 0.45])

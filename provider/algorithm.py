@@ -78,7 +78,41 @@ class _Style(QgsProcessingLayerPostProcessorInterface):
     def postProcessLayer(self, layer, context, feedback):  # noqa: N802
         if layer is not None and self.qml and os.path.exists(self.qml):
             layer.loadNamedStyle(self.qml)
+            if os.path.basename(self.qml) == "chm.qml":
+                fit_chm_classes(layer)
             layer.triggerRepaint()
+
+
+def fit_chm_classes(layer, classes: int = 6) -> list:
+    """Re-fit the CHM style's discrete classes to this layer's own range: about ``classes``
+    classes of a round width (1, 2 or 5 m...) from 0 to the highest cell, in the style's
+    colours. Returns the class upper limits."""
+    import math
+
+    from qgis.core import QgsColorRampShader, QgsRasterBandStats
+
+    from lidartrees_gis.pipeline import nice_step
+
+    rend = layer.renderer()
+    shader = getattr(rend, "shader", lambda: None)()
+    fn = shader.rasterShaderFunction() if shader is not None else None
+    if fn is None or not hasattr(fn, "colorRampItemList"):
+        return []
+    colours = [it.color for it in fn.colorRampItemList()]
+    top = layer.dataProvider().bandStatistics(1, QgsRasterBandStats.Max).maximumValue
+    if not colours or not math.isfinite(top) or top <= 0:
+        return []
+    step = nice_step(top, classes)
+    n = max(2, math.ceil(top / step))
+    items = [QgsColorRampShader.ColorRampItem(
+        (i + 1) * step, colours[round(i * (len(colours) - 1) / (n - 1))],
+        f"{i * step:g} - {(i + 1) * step:g} m") for i in range(n)]
+    fn.setColorRampItemList(items)
+    fn.setMinimumValue(0.0)
+    fn.setMaximumValue(n * step)
+    rend.setClassificationMin(0.0)
+    rend.setClassificationMax(n * step)
+    return [it.value for it in items]
 
 
 def run_cli(args, feedback):

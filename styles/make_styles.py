@@ -36,15 +36,35 @@ def ramp(name):
     return r if r is not None else QgsGradientColorRamp(QColor("#f7fcb9"), QColor("#004529"))
 
 
+#: CHM classes (m) and colours (ColorBrewer YlGn): light open ground to dark tall canopy. The
+#: toolbox re-fits the class limits to each loaded CHM's own range (provider/algorithm.py).
+CHM_COLOURS = ["#ffffe5", "#d9f0a3", "#addd8e", "#78c679", "#31a354", "#006837", "#004529"]
+
+
+def chm_items(top: float, classes: int = 6):
+    """Colour-ramp items: ``classes`` discrete classes of a round width from 0 to ``top``."""
+    import math
+
+    from lidartrees_gis.pipeline import nice_step
+
+    step = nice_step(max(top, 1.0), classes)
+    n = max(2, math.ceil(max(top, 1.0) / step))
+    cols = [CHM_COLOURS[round(i * (len(CHM_COLOURS) - 1) / max(n - 1, 1))] for i in range(n)]
+    return [QgsColorRampShader.ColorRampItem((i + 1) * step, QColor(c),
+                                             f"{i * step:g} - {(i + 1) * step:g} m")
+            for i, c in enumerate(cols)]
+
+
 def chm_style(path, out):
     lyr = QgsRasterLayer(str(path), "chm")
     shader = QgsRasterShader()
-    fn = QgsColorRampShader(0.0, 40.0, ramp("Viridis"), QgsColorRampShader.Interpolated)
-    fn.classifyColorRamp(9, -1)
+    fn = QgsColorRampShader(0.0, 30.0)
+    fn.setColorRampType(QgsColorRampShader.Discrete)
+    fn.setColorRampItemList(chm_items(30.0))
     shader.setRasterShaderFunction(fn)
     rend = QgsSingleBandPseudoColorRenderer(lyr.dataProvider(), 1, shader)
     rend.setClassificationMin(0.0)
-    rend.setClassificationMax(40.0)
+    rend.setClassificationMax(30.0)
     lyr.setRenderer(rend)
     lyr.saveNamedStyle(str(out))
 
@@ -75,17 +95,19 @@ def main():
         tiny_raster(tif)
         chm_style(tif, HERE / "chm.qml")
         dtm_style(tif, HERE / "dtm_hillshade.qml")
-    heights = [0, 5, 10, 15, 20, 25, 30, 40, 100]
-    hcol = ["#ffffcc", "#d9f0a3", "#addd8e", "#78c679", "#41ab5d", "#238443", "#006837", "#004529"]
+    # tops and crowns in reds and magentas, hues the green CHM does not have
+    heights = [0, 10, 15, 20, 25, 30, 100]
+    hcol = ["#fb6a4a", "#ef3b2c", "#e31a1c", "#cb181d", "#a50f15", "#67000d"]  # Reds
     pts = QgsVectorLayer("Point?field=height:double&field=crown_diameter:double", "tree_tops", "memory")
     graduated(pts, "height", lambda c: QgsMarkerSymbol.createSimple(
-        {"name": "circle", "color": c, "outline_color": "#222222", "size": "2"}), heights, hcol)
+        {"name": "circle", "color": c, "outline_color": "#ffffff", "outline_width": "0.3",
+         "size": "2"}), heights, hcol)
     pts.saveNamedStyle(str(HERE / "tree_tops.qml"))
-    diam = [0, 1, 2, 3, 4, 6, 8, 12, 100]
-    dcol = ["#fde725", "#b5de2b", "#6ece58", "#35b779", "#1f9e89", "#26828e", "#31688e", "#3e4989"]
+    diam = [0, 2, 3, 4, 6, 8, 100]
+    dcol = ["#f768a1", "#e7298a", "#dd3497", "#c51b8a", "#ae017e", "#7a0177"]  # RdPu
     polys = QgsVectorLayer("Polygon?field=height:double&field=crown_diameter:double", "crowns", "memory")
     graduated(polys, "crown_diameter", lambda c: QgsFillSymbol.createSimple(
-        {"style": "no", "outline_color": c, "outline_width": "0.5"}), diam, dcol)
+        {"style": "no", "outline_color": c, "outline_width": "0.4"}), diam, dcol)
     polys.saveNamedStyle(str(HERE / "crowns.qml"))
     from qgis.core import QgsSingleSymbolRenderer
 

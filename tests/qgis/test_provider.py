@@ -337,3 +337,59 @@ def test_algorithms_leave_no_resource_warning(qgis_app, tmp_path, data):
         gc.collect()
     res = [w for w in caught if issubclass(w.category, ResourceWarning)]
     assert not res, [str(w.message) for w in res]
+
+
+def test_styles_render_readably_on_the_chm(qgis_app, tmp_path, data):
+    """Run trees from the toolbox with the outputs loaded, render CHM, crowns and tops through
+    PyQGIS to a PNG (kept for a look: tests/qgis/... tmp folder) and check what a reader sees:
+    the CHM classes fitted to its own range, tops and crowns in hues the CHM does not have."""
+    import processing
+    from PIL import Image
+    from qgis.core import (QgsMapRendererSequentialJob, QgsMapSettings, QgsProject,
+                           QgsRasterLayer)
+    from qgis.PyQt.QtCore import QSize
+
+    QgsProject.instance().removeAllMapLayers()
+    chm_path = tmp_path / "chm.tif"
+    processing.runAndLoadResults("lidartrees:trees", {
+        "INPUT": str(data("lidR_extdata/MixedConifer.laz")), "OUTPUT": str(tmp_path / "t.gpkg"),
+        "CHM_OUT": str(chm_path)})
+    layers = {lyr.name(): lyr for lyr in QgsProject.instance().mapLayers().values()}
+    chm = next(lyr for lyr in layers.values()
+               if isinstance(lyr, QgsRasterLayer) and lyr.source() == str(chm_path))
+    items = chm.renderer().shader().rasterShaderFunction().colorRampItemList()
+    top = chm.dataProvider().bandStatistics(1).maximumValue
+    limits = [it.value for it in items]
+    # a few classes of a round width, the last one just above the CHM's highest cell
+    assert 3 <= len(items) <= 7 and limits[-1] >= top > limits[-2]
+    assert len({round(b - a, 6) for a, b in zip([0] + limits, limits)}) == 1
+    assert all(it.label.endswith(" m") for it in items)
+    chm_rgb = np.array([[it.color.red(), it.color.green(), it.color.blue()] for it in items])
+
+    def colours(layer):
+        return np.array([[s.symbol().color().red(), s.symbol().color().green(),
+                          s.symbol().color().blue()] for s in layer.renderer().ranges()])
+
+    for name in ("tree_tops", "crowns"):
+        c = colours(layers[name])
+        dist = np.sqrt(((c[:, None, :] - chm_rgb[None, :, :]) ** 2).sum(-1))
+        assert dist.min() > 120, (name, dist.min())  # far from every CHM class colour
+    ms = QgsMapSettings()
+    ms.setLayers([layers["tree_tops"], layers["crowns"], chm])
+    ms.setDestinationCrs(chm.crs())
+    ms.setExtent(chm.extent())
+    ms.setOutputSize(QSize(900, 900))
+    job = QgsMapRendererSequentialJob(ms)
+    job.start()
+    job.waitForFinished()
+    png = tmp_path / "render.png"
+    assert job.renderedImage().save(str(png), "PNG")
+    QgsProject.instance().removeAllMapLayers()
+    rgb = np.asarray(Image.open(png).convert("RGB")).astype(int)
+    r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
+    green = (g > r + 30) & (g > b + 20)
+    magenta = (r > 120) & (b > 60) & (g < 80) & (r - g > 80)
+    red = (r > 150) & (g < 60) & (b < 60)
+    assert green.mean() > 0.2, green.mean()
+    assert magenta.mean() > 0.02 and red.sum() > 200, (magenta.mean(), red.sum())
+    print("rendered", png)
