@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 
 from . import __version__
@@ -60,23 +61,31 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
+def _tidy(v):
+    """Numbers as a reader wants them: 10 significant digits at most, so binary artefacts
+    (358.28000000000003) go and coordinates keep their millimetres."""
+    if isinstance(v, float):
+        return float(f"{v:.10g}") if math.isfinite(v) else v
+    if isinstance(v, dict):
+        return {k: _tidy(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return type(v)(_tidy(x) for x in v)
+    return v
+
+
 def _print_result(name, res, quiet, as_json):
     if as_json:
         print(json.dumps(res, indent=2, default=str))
         return
     if not isinstance(res, dict):
         return
+    res = {k: (v if k == "table" else _tidy(v)) for k, v in res.items()}
     if name == "info":  # the result itself: printed even with -q
         for k, v in res.items():
-            if k != "crs_wkt":
+            if k != "crs_wkt" and not (k == "reprojection" and v is None):
                 print(f"{k}: {v}")
         return
     if quiet:
-        return
-    if name == "info":
-        for k, v in res.items():
-            if k != "crs_wkt":
-                print(f"{k}: {v}")
         return
     for k, v in res.items():
         if v is None or k == "table" or (isinstance(v, dict) and "table" in res):

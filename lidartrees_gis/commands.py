@@ -64,9 +64,9 @@ COLUMNS = Param("columns", "str", "XYZ column names in order, e.g. x,y,z,intensi
 SKIP_INVALID = Param("skip_invalid", "bool", "Skip malformed XYZ lines and report how many, instead "
                      "of failing", flag="--skip-invalid", default=False, advanced=True)
 RES = Param("res", "res", "Cell size in metres, or auto = sqrt(1/n) from the point density n "
-            "(seed 003)", flag="-tr", aliases=("--resolution",), default="auto", unit="m")
+            "(Leite et al.)", flag="-tr", aliases=("--resolution",), default="auto", unit="m")
 FILL = Param("fill", "choice", "Gap filling: mean8 = empty cells take the mean of their filled "
-             "8-neighbours, repeated until none is empty (seed 000); none = leave nodata",
+             "8-neighbours, repeated until none is empty (Castro 2006); none = leave nodata",
              flag="-fill", choices=("mean8", "none"), default="mean8")
 CO = Param("creation_options", "kv", "GDAL creation option KEY=VALUE for GeoTIFF outputs "
            "(repeatable)", flag="-co", advanced=True)
@@ -329,7 +329,7 @@ def _compare(input, output, **kw):
                               min_height=float(kw.get("min_height") or 2.0),
                               step=float(kw.get("step") or 0.1), overwrite=bool(kw.get("overwrite")),
                               progress=kw.get("progress"), **_read_kw(kw))
-    return {"output": r["output"], "table": r["table"]}
+    return {"output": r["output"], "reprojection": r.get("reprojection"), "table": r["table"]}
 
 
 def _kp_params(kw):
@@ -447,9 +447,9 @@ COMMANDS = {
         (Param("input", "input", "Point file (LAS/LAZ, XYZ) or a CHM GeoTIFF"),
          Param("output", "output", "Output GeoPackage (.gpkg)"),
          CHM_RES,
-         Param("method", "choice", "Crowns: rg = region growing (Castro 2006 / Hyyppä 2001, seed "
-               "000); treex = TreeX priority growing (seed 001); watershed = Vincent-Soille on the "
-               "inverted CHM (seed 000); mcws = marker-controlled watershed from the tops",
+         Param("method", "choice", "Crowns: rg = region growing (Castro 2006 / Hyyppä 2001); "
+               "treex = TreeX priority growing (Pantaleão et al.); watershed = Vincent-Soille on the "
+               "inverted CHM (Castro 2006); mcws = marker-controlled watershed from the tops",
                flag="-method", choices=("rg", "treex", "watershed", "mcws"), default="rg"),
          Param("smooth", "str", "CHM filter: auto = a Gaussian sized from the crown scale "
                "(measured on the CHM, or from -spacing); none; gauss3 (Castro's fine mask); "
@@ -472,7 +472,7 @@ COMMANDS = {
                advanced=True, unit="m"),
          Param("window_factor", "float", "Adaptive window radius for a tree of the dominant "
                "height, in crown scales", flag="-window_factor", default=0.9, advanced=True),
-         Param("step", "float", "Region-growing threshold step (ajuste, seed 000 Annex 2)",
+         Param("step", "float", "Region-growing threshold step (ajuste, Castro 2006, Annex 2)",
                flag="-step", default=0.1, advanced=True, unit="m"),
          Param("mean_crown_area", "float", "TreeX window: mean crown area", flag="-mean_crown_area",
                default=6.0, advanced=True, unit="m²"),
@@ -506,7 +506,7 @@ COMMANDS = {
          Param("append", "bool", "Append to an existing GeoPackage", flag="-append",
                default=False, advanced=True)), _trees, outputs=("output", "png", "csv", "chm_out")),
     "compare": Command(
-        "compare", "Trees", "Seed 000 Table 1: ten smoothing/segmentation configurations compared",
+        "compare", "Trees", "Castro (2006) Table 1: ten smoothing/segmentation configurations compared",
         (Param("input", "input", "Point file (LAS/LAZ, XYZ) or a CHM GeoTIFF"),
          Param("output", "output", "Output CSV"),
          CHM_RES,
@@ -526,11 +526,11 @@ COMMANDS = {
          *READ_GEO, OVERWRITE), _compare, outputs=("output",)),
     "ground": Command(
         "ground", "Ground", "Ground points by Kraus & Pfeifer hierarchical robust interpolation "
-        "(seed 003) and TIN densification, classified LAS/LAZ and DTM",
+        "(Leite et al.) and TIN densification, classified LAS/LAZ and DTM",
         (INPUT, Param("output", "output", "Output classified LAS/LAZ (ground = class 2)"),
          Param("dtm_out", "output", "Also write the DTM GeoTIFF (linear TIN of the ground points)",
                flag="-dtm"),
-         Param("res", "res", "DTM cell size, m, or auto = sqrt(1/n) (seed 003)", flag="-tr",
+         Param("res", "res", "DTM cell size, m, or auto = sqrt(1/n) (Leite et al.)", flag="-tr",
                aliases=("--resolution",), default="auto", unit="m"),
          *KP_PARAMS,
          Param("reclassify", "bool", "Also give the filter's decision to points of other classes "
@@ -538,22 +538,22 @@ COMMANDS = {
                default=False, advanced=True),
          *READ_GEO, CO, OVERWRITE), _ground, outputs=("output", "dtm_out")),
     "dtm-quality": Command(
-        "dtm-quality", "Ground", "DTM quality sweep of seed 003: Kraus & Pfeifer (g, w) grid, "
+        "dtm-quality", "Ground", "DTM quality sweep (Leite et al.): Kraus & Pfeifer (g, w) grid, "
         "GLCM texture, PCA, k-means",
         (INPUT, Param("outdir", "outdir", "Output folder (CSV, hillshade PNGs, recommended_dtm.tif)",
                       required=True),
-         Param("g", "str", "g values START:STOP:STEP (seed 003: -4:1:0.5)", flag="-g",
+         Param("g", "str", "g values START:STOP:STEP (Leite et al.: -4:1:0.5)", flag="-g",
                default="-4:1:0.5"),
-         Param("w", "str", "w values START:STOP:STEP (seed 003: 1:4:0.5)", flag="-w",
+         Param("w", "str", "w values START:STOP:STEP (Leite et al.: 1:4:0.5)", flag="-w",
                default="1:4:0.5"),
-         Param("res", "res", "DTM cell size, m, or auto = sqrt(1/n) (seed 003)", flag="-tr",
+         Param("res", "res", "DTM cell size, m, or auto = sqrt(1/n) (Leite et al.)", flag="-tr",
                aliases=("--resolution",), default="auto", unit="m"),
          *[p for p in KP_PARAMS if p.name not in ("g", "w", "tolerance")],
          Param("seed", "float", "k-means random seed", flag="-seed", default=0, advanced=True),
          *READ_GEO, OVERWRITE), _dtm_quality),
     "stem": Command(
         "stem", "Terrestrial", "Trunk points, DBH and taper of one tree by the Dmax filter "
-        "(Buck et al. 2014, seed 004)",
+        "(Buck et al. 2014)",
         (Param("input", "input", "One tree's TLS points (LAS/LAZ or XYZ)"),
          Param("prefix", "outdir", "Output prefix: PREFIX_trunk.laz, _sections.csv/.gpkg, "
                "_summary.json, _taper.png", required=True),
@@ -571,7 +571,7 @@ COMMANDS = {
          *READ, OVERWRITE), _stem),
     "profile": Command(
         "profile", "Terrestrial", "Roots / stem / canopy from the point-density profile "
-        "(Queiroz 2017, seed 002)",
+        "(Queiroz 2017)",
         (Param("input", "input", "One tree's TLS points (LAS/LAZ or XYZ)"),
          Param("output", "output", "Output LAS/LAZ with the extra dimension part (1 roots, 2 "
                "stem, 3 canopy); boundaries JSON/CSV and a PNG beside it"),

@@ -39,12 +39,13 @@ def info(src: PointSource, progress=None) -> dict:
         "skipped": st.skipped,
         "bounds": list(st.bounds),
         "z_range": list(st.zrange),
-        "area_m2": st.area,
-        "density_pts_m2": None if math.isnan(st.density) else st.density,
+        "area_m2": round(st.area, 1),
+        "density_pts_m2": None if math.isnan(st.density) else round(st.density, 3),
         "crs": crs_label(src.crs),
         "crs_wkt": src.crs.to_wkt() if src.crs is not None else None,
         "classes": st.classes,
         "returns": st.returns,
+        "reprojection": _repro_report(src),
     }
     if src.format == "las":
         out["las_version"] = src.header_info.get("version")
@@ -819,7 +820,8 @@ def compare_file(input, output, *, res="auto", dtm="auto", chm="pitfree", fill="
     md = ["| method | trees | mean height (m) | mean diameter (m) |", "|---|---|---|---|"]
     md += [f"| {r['configuration']} | {r['trees']} | {r['mean_height']:.2f} | "
            f"{r['mean_crown_diameter']:.2f} |" for r in rows]
-    return {"output": str(output), "rows": rows, "table": "\n".join(md), "res": spec.res}
+    return {"output": str(output), "rows": rows, "table": "\n".join(md), "res": spec.res,
+            "reprojection": info.get("reprojection")}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -1207,7 +1209,8 @@ def stem_file(input, prefix, *, params=None, overwrite=False, a_srs=None, t_srs=
     prog.update(1.0, "done")
     return {**{k: str(v) for k, v in paths.items()},
             **{k: summary[k] for k in ("dbh_cm", "tree_height", "reached_height", "reached_percent",
-                                       "sections_converged", "trunk_points", "message")}}
+                                       "sections_converged", "trunk_points", "message")},
+            "reprojection": _repro_report(src)}
 
 
 def profile_file(input, output, *, bin=0.05, sigma=0.3, overwrite=False, a_srs=None,  # noqa: A002
@@ -1264,4 +1267,4 @@ def profile_file(input, output, *, bin=0.05, sigma=0.3, overwrite=False, a_srs=N
     prog.update(1.0, "done")
     return {"output": str(out), **{k: str(v) for k, v in paths.items()},
             **{k: info[k] for k in ("stem_start", "canopy_start", "top", "has_roots")},
-            "notes": "; ".join(r["notes"])}
+            "notes": "; ".join(r["notes"]), "reprojection": _repro_report(src)}

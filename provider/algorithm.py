@@ -59,13 +59,13 @@ REFERENCES = {
                 "using heterogeneous forest data from the Alpine Space. Forests 6, 1721-1747.",
     "ground": "Kraus, K. & Pfeifer, N. (1998) robust interpolation, as in FUSION's GroundFilter, "
               "hierarchical after Pfeifer, N. et al. (2001), then densification against a TIN "
-              "of the ground; (g, w) for eucalyptus by Leite et al. (seed 003).",
-    "dtm-quality": "Leite et al. (seed 003): 77 (g, w) DTMs judged by GLCM texture, PCA and "
+              "of the ground; (g, w) for eucalyptus by Leite et al..",
+    "dtm-quality": "Leite et al.: 77 (g, w) DTMs judged by GLCM texture, PCA and "
                    "k-means.",
     "stem": "Buck, A. L. B. et al. (2014), Dmax filter for trunk points of Pinus in TLS clouds "
-            "(seed 004).",
+            ".",
     "profile": "Queiroz (2017), vertical segmentation of mangrove trees into roots, stem and "
-               "canopy from the point-density profile (seed 002).",
+               "canopy from the point-density profile .",
 }
 _KEEP = []  # post-processors must outlive processAlgorithm
 

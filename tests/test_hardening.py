@@ -41,7 +41,15 @@ def test_help_shows_every_default(capsys):
 
 def test_info_quiet_still_prints_the_result(small_las, capsys):
     assert main(["info", str(small_las), "-q"]) == 0
-    assert "points: 4000" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "points: 4000" in out
+    # numbers rounded for a reader: no binary artefacts, density and area short
+    import re
+
+    assert not re.search(r"\d\.\d*(0000\d|9999\d)", out), out
+    dens = re.search(r"density_pts_m2: ([\d.]+)", out).group(1)
+    area = re.search(r"area_m2: ([\d.]+)", out).group(1)
+    assert len(dens.split(".")[1]) <= 3 and len(area.split(".")[1]) <= 1
 
 
 def test_xyz_bom_is_dropped(tmp_path):
@@ -286,6 +294,12 @@ def test_t_srs_states_and_stores_the_operation(tmp_path, capsys):
     meta = pyogrio.read_info(tmp_path / "t.gpkg", layer="tree_tops")["layer_metadata"]
     assert "SAD69 to SIRGAS 2000" in meta["reprojection_operation"]
     assert float(meta["reprojection_accuracy_m"]) > 0
+    # every other command that reads points states it too
+    for args in (["info", str(f)], ["compare", str(f), str(tmp_path / "cmp.csv")]):
+        assert main(args + crs) == 0
+        c = capsys.readouterr()
+        line = [ln for ln in (c.out + c.err).splitlines() if ln.startswith("reprojection:")]
+        assert len(line) == 1 and "SIRGAS 2000" in line[0] and "accuracy" in line[0], args[0]
 
 
 def test_compiled_kernels_never_index_outside_their_arrays():
@@ -418,3 +432,18 @@ def test_ground_stores_the_t_srs_operation_in_the_las(tmp_path, capsys):
     assert main(["ground", str(out), str(out2), "-reclassify", "-q"]) == 0
     meta2 = read_provenance(out2)
     assert meta2["reclassify"] is True and "reprojection_operation" not in meta2
+
+
+def test_disk_full_is_one_line_and_leaves_no_part_file(small_las, tmp_path, capsys, monkeypatch):
+    import errno
+
+    import lidartrees_gis.io.output as output
+
+    def full(*a, **k):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(output.os, "replace", full)  # the disk fills at the last step
+    out = tmp_path / "c.tif"
+    assert main(["chm", str(small_las), str(out), "-q"]) == 1
+    _one_error_line(capsys, "No space left on device")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.las"]

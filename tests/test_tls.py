@@ -125,6 +125,16 @@ def test_stem_and_profile_on_treels_pine(tmp_path, data):
 
 
 @pytest.mark.realdata
+def test_stem_and_profile_state_the_t_srs_operation(tmp_path, data, capsys):
+    f = data("TreeLS_tls/pine.laz")
+    crs = ["-a_srs", "EPSG:32632", "-t_srs", "EPSG:25832"]
+    for args in (["stem", str(f), str(tmp_path / "pine")], ["profile", str(f), str(tmp_path / "p.laz")]):
+        assert main(args + crs) == 0
+        line = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("reprojection:")]
+        assert len(line) == 1 and "ETRS89" in line[0] and "accuracy" in line[0], args[0]
+
+
+@pytest.mark.realdata
 @pytest.mark.parametrize("name", ["TreeLS_tls/spruce.laz", "xyz_text/ITSMe_tree_1_pc.txt",
                                   "xyz_text/ITSMe_tree_2_pc.txt", "arbor_tls/tree_qsm.laz",
                                   "xyz_text/rTLS_pc_tree.txt"])

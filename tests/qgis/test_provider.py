@@ -129,6 +129,9 @@ def test_parameter_labels_are_readable(qgis_app):
                         "allow_no_crs", "w_growth", "tin_cell", "gshift", "treex_centred"):
                 assert label.split(" (")[0] != mechanical, (alg.name(), name, label)
             assert not re.search(r"seed \d", label.lower()), (alg.name(), label)
+        # names and help cite authors, not the project's seed numbers
+        for text in (alg.displayName(), alg.shortHelpString()):
+            assert not re.search(r"seed \d", text.lower()), (alg.name(), text)
     chm = QgsApplication.processingRegistry().algorithmById("lidartrees:chm")
     labels = {d.name().lower(): d.description() for d in chm.parameterDefinitions()}
     assert labels["a_srs"] == "CRS of the input (assign)" and labels["dtm"] == "Terrain model (DTM)"
