@@ -44,27 +44,31 @@ def _surfaces(catalog: Catalog, box, opts: dict):
                          keep=parse_classes(opts["keep_class"], "-keep_class"))
     try:
         return compute_surfaces(src, opts["res"], dtm=opts["dtm"], fill=opts["fill"],
-                                chm=opts["chm"], outliers=opts["outliers"])
+                                chm=opts["chm"], outliers=opts["outliers"],
+                                max_edge=opts.get("max_edge"))
     except InputError as exc:
         if "no points" in str(exc):
             return None
         raise
 
 
-def _window_density(catalog: Catalog, box, opts: dict) -> float:
-    """Points per m² inside ``box``, over the 1 m cells that hold points (so edges, gaps
-    between files and a file's empty corners do not count)."""
+def _window_density(catalog: Catalog, box, opts: dict) -> tuple:
+    """Points and first returns per m² inside ``box``, over the 1 m cells that hold points (so
+    edges, gaps between files and a file's empty corners do not count)."""
     from .pipeline import parse_classes
 
     src = TileSource(catalog, box)
     src.set_class_filter(drop=parse_classes(opts["drop_class"]) or (),
                          keep=parse_classes(opts["keep_class"], "-keep_class"))
-    n, cells = 0, set()
+    n, n_first, cells = 0, 0, set()
     for c in src.chunks():
         n += len(c)
+        n_first += len(c) if c.return_number is None else int((c.return_number <= 1).sum())
         cells.update(np.unique(np.floor(c.x).astype(np.int64) * 10_000_019
                                + np.floor(c.y).astype(np.int64)).tolist())
-    return n / len(cells) if cells else float("nan")
+    if not cells:
+        return float("nan"), float("nan")
+    return n / len(cells), n_first / len(cells)
 
 
 def area_parameters(catalog: Catalog, res, params, opts: dict, *, window: float = 150.0) -> dict:
@@ -76,7 +80,7 @@ def area_parameters(catalog: Catalog, res, params, opts: dict, *, window: float 
     95th percentiles of canopy height give the crown scale and the dominant height. They
     depend on the points only, not on how the area is tiled or split into files.
     """
-    from .chm import chm_resolution, crown_scale
+    from .chm import chm_resolution, crown_scale, pitfree_edge
     from .grid import check_resolution
     from .trees import SPACING_FACTOR
 
@@ -94,11 +98,15 @@ def area_parameters(catalog: Catalog, res, params, opts: dict, *, window: float 
             box = (max(cx - h, x0), max(cy - h, y0), min(cx + h, x1), min(cy + h, y1))
             if box not in boxes:
                 boxes.append(box)
-    dens = [d for d in (_window_density(catalog, b, opts) for b in boxes) if np.isfinite(d)]
-    if not dens:
+    pairs = [d for d in (_window_density(catalog, b, opts) for b in boxes) if np.isfinite(d[0])]
+    if not pairs:
         raise InputError(f"{catalog.files[0]}: no points found to measure the point density")
+    dens = [d[0] for d in pairs]
     r = fixed_res if fixed_res is not None else chm_resolution(int(round(np.median(dens) * 1e6)), 1e6)
     out["res"] = r
+    # the pit-free edge limit from the area's first-return density, the same in every tile
+    out["max_edge"] = pitfree_edge(int(round(np.median([d[1] for d in pairs]) * 1e6)), 1e6)
+    opts = {**opts, "max_edge": out["max_edge"]}
     if out["crown_scale"] is not None and out["dominant_height"] is not None:
         return out
     scales, heights = [], []
@@ -218,7 +226,7 @@ def plan(catalog: Catalog, params, opts: dict, tile_size=None, buffer=None):
 
     ap = area_parameters(catalog, opts.get("res"), params, opts)
     params = replace(params, crown_scale=ap["crown_scale"], dominant_height=ap["dominant_height"])
-    opts = {**opts, "res": ap["res"]}
+    opts = {**opts, "res": ap["res"], "max_edge": ap["max_edge"]}
     ts = float(tile_size) if tile_size else TILE_SIZE
     if math.isfinite(ts):
         ts = max(ap["res"], round(ts / ap["res"]) * ap["res"])  # tile edges on cell edges
@@ -468,9 +476,10 @@ def chm_tiled(input, output, *, tile_size=None, buffer=None, workers=None, sched
     opts = _options(kw)
     from .trees import TreeParams
 
-    res = area_parameters(catalog, opts["res"], TreeParams(crown_scale=1.0, dominant_height=1.0),
-                          opts)["res"]  # the same cell size as trees_tiled
-    opts["res"] = res
+    ap = area_parameters(catalog, opts["res"], TreeParams(crown_scale=1.0, dominant_height=1.0),
+                         opts)  # the same cell size and pit-free edge as trees_tiled
+    res = opts["res"] = ap["res"]
+    opts["max_edge"] = ap["max_edge"]
     ts = float(tile_size) if tile_size else TILE_SIZE
     if math.isfinite(ts):
         ts = max(res, round(ts / res) * res)
