@@ -191,7 +191,20 @@ def test_plugin_zip_installs_and_runs_in_qgis_process(qgis_app, tmp_path, data):
     plugins = tmp_path / "plugins"
     with zipfile.ZipFile(z) as zf:
         zf.extractall(plugins)
-    assert (plugins / "lidartrees_qgis" / "metadata.txt").exists()
+    import configparser
+
+    import lidartrees_gis
+
+    meta = configparser.ConfigParser()
+    meta.read(plugins / "lidartrees_qgis" / "metadata.txt", encoding="utf-8")
+    g = meta["general"]
+    # true metadata: the package's version, how the plugin really finds the command, no
+    # placeholder links (the project has no public repository yet, so none are given)
+    assert g["version"] == lidartrees_gis.__version__ and g["qgisMinimumVersion"] == "3.22"
+    assert "~/.venvs/lidartrees" in g["about"] and "subprocess" in g["about"]
+    assert "example." not in open(plugins / "lidartrees_qgis" / "metadata.txt").read()
+    for key in ("homepage", "repository", "tracker"):
+        assert not g.get(key, "") or g[key].startswith("https://"), key
     lic = (plugins / "lidartrees_qgis" / "LICENSE").read_text()
     assert "GNU GENERAL PUBLIC LICENSE" in lic and "Version 3" in lic
     home = tmp_path / "home"
