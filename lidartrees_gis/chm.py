@@ -265,6 +265,22 @@ def pitfree_chm(x, y, zn, spec: GridSpec, *, thresholds=PITFREE_THRESHOLDS, max_
     return out
 
 
+def nanpercentile_last(a, q: float) -> np.ndarray:
+    """``np.nanpercentile(a, q, axis=-1)`` (linear interpolation) in one sort: numpy's loops
+    over rows with NaN one by one (4 s of a 30 s tiled run). All-NaN rows give NaN."""
+    a = np.asarray(a, np.float64)
+    s = np.sort(a, axis=-1)  # NaN last
+    n = np.sum(~np.isnan(a), axis=-1)
+    pos = np.maximum(n - 1, 0) * (q / 100.0)
+    lo = np.floor(pos).astype(np.int64)
+    hi = np.minimum(lo + 1, np.maximum(n - 1, 0))
+    v_lo = np.take_along_axis(s, lo[..., None], axis=-1)[..., 0]
+    v_hi = np.take_along_axis(s, hi[..., None], axis=-1)[..., 0]
+    t = pos - lo
+    out = np.where(t >= 0.5, v_hi - (v_hi - v_lo) * (1 - t), v_lo + (v_hi - v_lo) * t)
+    return np.where(n > 0, out, np.nan)
+
+
 def canopy_outliers(chm_raw, res: float, *, block: float = 5.0, gap: float = 10.0,
                     join: float = 3.0, origin=None):
     """Cells whose highest return is an isolated outlier far above the canopy.
@@ -305,12 +321,7 @@ def canopy_outliers(chm_raw, res: float, *, block: float = 5.0, gap: float = 10.
     pad = np.full((nb_r * b, nb_c * b), np.nan)
     pad[r0:r0 + H, c0:c0 + W] = a
     blocks = pad.reshape(nb_r, b, nb_c, b).transpose(0, 2, 1, 3).reshape(nb_r, nb_c, b * b)
-    with np.errstate(all="ignore"):
-        import warnings
-
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)
-            p90 = np.nanpercentile(blocks, 90, axis=2)
+    p90 = nanpercentile_last(blocks, 90.0)
     p90 = np.where(np.isfinite(p90), p90, -np.inf)
     ref_b = ndimage.maximum_filter(p90, size=3, mode="nearest")
     ref = np.repeat(np.repeat(ref_b, b, axis=0), b, axis=1)[r0:r0 + H, c0:c0 + W]

@@ -52,6 +52,24 @@ def _surfaces(catalog: Catalog, box, opts: dict):
         raise
 
 
+def _window_edge(catalog: Catalog, box, opts: dict, res: float) -> float:
+    """The pit-free edge limit of the points in ``box`` by the rule of a single file
+    (:func:`lidartrees_gis.chm.pitfree_edge` of the first returns over the ``res`` cells that
+    hold a return); NaN for an empty box."""
+    from .chm import pitfree_edge
+    from .pipeline import parse_classes
+
+    src = TileSource(catalog, box)
+    src.set_class_filter(drop=parse_classes(opts["drop_class"]) or (),
+                         keep=parse_classes(opts["keep_class"], "-keep_class"))
+    n_first, cells = 0, set()
+    for c in src.chunks():
+        n_first += len(c) if c.return_number is None else int((c.return_number <= 1).sum())
+        cells.update(np.unique(np.floor(c.x / res).astype(np.int64) * 100_000_007
+                               + np.floor(c.y / res).astype(np.int64)).tolist())
+    return pitfree_edge(n_first, len(cells) * res * res) if cells else float("nan")
+
+
 def _window_density(catalog: Catalog, box, opts: dict) -> tuple:
     """Points and first returns per m² inside ``box``, over the 1 m cells that hold points (so
     edges, gaps between files and a file's empty corners do not count)."""
@@ -80,7 +98,7 @@ def area_parameters(catalog: Catalog, res, params, opts: dict, *, window: float 
     95th percentiles of canopy height give the crown scale and the dominant height. They
     depend on the points only, not on how the area is tiled or split into files.
     """
-    from .chm import chm_resolution, crown_scale, pitfree_edge
+    from .chm import chm_resolution, crown_scale
     from .grid import check_resolution
     from .trees import SPACING_FACTOR
 
@@ -104,8 +122,10 @@ def area_parameters(catalog: Catalog, res, params, opts: dict, *, window: float 
     dens = [d[0] for d in pairs]
     r = fixed_res if fixed_res is not None else chm_resolution(int(round(np.median(dens) * 1e6)), 1e6)
     out["res"] = r
-    # the pit-free edge limit from the area's first-return density, the same in every tile
-    out["max_edge"] = pitfree_edge(int(round(np.median([d[1] for d in pairs]) * 1e6)), 1e6)
+    # the pit-free edge limit of the area (the single-file rule, median of the windows), the
+    # same in every tile
+    edges = [e for e in (_window_edge(catalog, b, opts, r) for b in boxes) if np.isfinite(e)]
+    out["max_edge"] = float(np.median(edges)) if edges else 1.5
     opts = {**opts, "max_edge": out["max_edge"]}
     if out["crown_scale"] is not None and out["dominant_height"] is not None:
         return out

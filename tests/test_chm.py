@@ -138,3 +138,20 @@ def test_surfaces_do_not_depend_on_the_order_of_the_points(tmp_path):
     for c, d in outs[1:]:
         assert np.array_equal(c, outs[0][0]) and np.array_equal(d, outs[0][1])
     assert np.isfinite(outs[0][1]).all() and outs[0][0].max() > 10
+
+
+def test_nanpercentile_last_is_numpys_nanpercentile():
+    import warnings
+
+    from lidartrees_gis.chm import nanpercentile_last
+
+    rng = np.random.default_rng(0)
+    a = rng.random((40, 30, 25)) * 30
+    a[rng.random(a.shape) < 0.4] = np.nan
+    a[0, 0] = np.nan  # an empty block
+    a[1, 1, :24] = np.nan  # one value
+    for q in (0, 37.5, 90, 100):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            ref = np.nanpercentile(a, q, axis=2)
+        np.testing.assert_array_equal(nanpercentile_last(a, q), ref)
