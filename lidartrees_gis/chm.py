@@ -108,10 +108,15 @@ def triangulate(x, y, z):
         # the last point, and points in random order (some XYZ files) made it 70x slower
         order = _morton_order(x, y)
         dt = startinpy.DT()
-        dt.duplicates_handling = "Highest"
-        dt.insert(np.column_stack([x[order], y[order], z[order]]))
-        p = np.asarray(dt.points)
-        tri = np.asarray(dt.triangles, dtype=np.int64)
+        try:
+            dt.duplicates_handling = "Highest"
+            dt.insert(np.column_stack([x[order], y[order], z[order]]))
+            p = np.asarray(dt.points)
+            tri = np.asarray(dt.triangles, dtype=np.int64)
+        finally:
+            # a DT must be dropped by the thread that made it (pyo3 "unsendable"): not later by
+            # a garbage collection elsewhere through a traceback that still holds this frame
+            del dt
         return p[:, 0], p[:, 1], p[:, 2], tri  # vertex 0 is startin's infinite vertex, unused
     from scipy.spatial import Delaunay
 

@@ -52,7 +52,7 @@ def _surfaces(catalog: Catalog, box, opts: dict):
         raise
 
 
-def _window_edge(catalog: Catalog, box, opts: dict, res: float) -> float:
+def _window_edge(box, catalog: Catalog, opts: dict, res: float) -> float:
     """The pit-free edge limit of the points in ``box`` by the rule of a single file
     (:func:`lidartrees_gis.chm.pitfree_edge` of the first returns over the ``res`` cells that
     hold a return); NaN for an empty box."""
@@ -70,7 +70,7 @@ def _window_edge(catalog: Catalog, box, opts: dict, res: float) -> float:
     return pitfree_edge(n_first, len(cells) * res * res) if cells else float("nan")
 
 
-def _window_density(catalog: Catalog, box, opts: dict) -> tuple:
+def _window_density(box, catalog: Catalog, opts: dict) -> tuple:
     """Points and first returns per m² inside ``box``, over the 1 m cells that hold points (so
     edges, gaps between files and a file's empty corners do not count)."""
     from .pipeline import parse_classes
@@ -89,16 +89,34 @@ def _window_density(catalog: Catalog, box, opts: dict) -> tuple:
     return n / len(cells), n_first / len(cells)
 
 
-def area_parameters(catalog: Catalog, res, params, opts: dict, *, window: float = 150.0) -> dict:
+def _window_canopy(box, catalog: Catalog, opts: dict, min_height: float, want_scale: bool):
+    """``(95th percentile of canopy height, crown scale or NaN)`` of one window, or None when
+    it holds no points or too little canopy."""
+    from .chm import crown_scale
+
+    s = _surfaces(catalog, box, opts)
+    if s is None:
+        return None
+    chm = s["chm"]
+    canopy = chm[np.isfinite(chm) & (chm >= min_height)]
+    if canopy.size < 25:
+        return None
+    cs = crown_scale(chm, opts["res"], min_height=min_height) if want_scale else float("nan")
+    return float(np.percentile(canopy, 95)), cs
+
+
+def area_parameters(catalog: Catalog, res, params, opts: dict, *, window: float = 150.0,
+                    runner=None) -> dict:
     """Cell size, crown scale and dominant height of the whole area, measured once.
 
     They are measured on up to nine ``window``-metre squares centred on a 3 x 3 grid over the
     area (windows without points or canopy are skipped): the median point density over the 1 m
     cells holding points gives the cell size; the medians of the windows' crown scales and
     95th percentiles of canopy height give the crown scale and the dominant height. They
-    depend on the points only, not on how the area is tiled or split into files.
+    depend on the points only, not on how the area is tiled or split into files. The windows
+    are measured as tasks of ``runner`` (a :class:`TileRunner`; default: in this process).
     """
-    from .chm import chm_resolution, crown_scale
+    from .chm import chm_resolution
     from .grid import check_resolution
     from .trees import SPACING_FACTOR
 
@@ -116,7 +134,9 @@ def area_parameters(catalog: Catalog, res, params, opts: dict, *, window: float 
             box = (max(cx - h, x0), max(cy - h, y0), min(cx + h, x1), min(cy + h, y1))
             if box not in boxes:
                 boxes.append(box)
-    pairs = [d for d in (_window_density(catalog, b, opts) for b in boxes) if np.isfinite(d[0])]
+    run = runner.map if runner is not None else TileRunner(1).map
+    pairs = [d for d in run(_window_density, boxes, (catalog, opts), ordered=True)
+             if np.isfinite(d[0])]
     if not pairs:
         raise InputError(f"{catalog.files[0]}: no points found to measure the point density")
     dens = [d[0] for d in pairs]
@@ -124,25 +144,17 @@ def area_parameters(catalog: Catalog, res, params, opts: dict, *, window: float 
     out["res"] = r
     # the pit-free edge limit of the area (the single-file rule, median of the windows), the
     # same in every tile
-    edges = [e for e in (_window_edge(catalog, b, opts, r) for b in boxes) if np.isfinite(e)]
+    edges = [e for e in run(_window_edge, boxes, (catalog, opts, r), ordered=True)
+             if np.isfinite(e)]
     out["max_edge"] = float(np.median(edges)) if edges else 1.5
     opts = {**opts, "max_edge": out["max_edge"]}
     if out["crown_scale"] is not None and out["dominant_height"] is not None:
         return out
-    scales, heights = [], []
-    for b in boxes:
-        s = _surfaces(catalog, b, {**opts, "res": r})
-        if s is None:
-            continue
-        chm = s["chm"]
-        canopy = chm[np.isfinite(chm) & (chm >= params.min_height)]
-        if canopy.size < 25:
-            continue
-        heights.append(float(np.percentile(canopy, 95)))
-        if out["crown_scale"] is None:
-            cs = crown_scale(chm, r, min_height=params.min_height)
-            if np.isfinite(cs):
-                scales.append(cs)
+    got = [g for g in run(_window_canopy, boxes, (catalog, {**opts, "res": r}, params.min_height,
+                                                   out["crown_scale"] is None), ordered=True)
+           if g is not None]
+    heights = [h for h, _ in got]
+    scales = [c for _, c in got if np.isfinite(c)]
     if out["crown_scale"] is None:
         if not scales:
             raise InputError(f"{catalog.files[0]}: no canopy above {params.min_height:g} m found "
@@ -207,44 +219,71 @@ def _client(workers, scheduler):
     return Client(cluster), cluster
 
 
-def run_tiles(fn, tiles, args, *, workers=None, scheduler=None, progress=None):
-    """Run ``fn(tile, *args)`` for every tile and yield the results as they finish: in this
-    process (``workers=1``), on a local Dask cluster or on ``scheduler``. A cancel (or Ctrl-C)
-    cancels the remaining tasks."""
-    prog = as_progress(progress)
-    workers = int(workers or os.environ.get("LIDARTREES_WORKERS", 0) or os.cpu_count() or 1)
-    n = len(tiles)
-    if workers <= 1 and not scheduler:
-        for k, t in enumerate(tiles):
-            check_cancel(prog)
-            yield fn(t, *args)
-            prog.update((k + 1) / n, f"tile {k + 1}/{n}")
+class TileRunner:
+    """Runs tasks ``fn(item, *args)``: in this process (``workers=1``), on a local Dask cluster
+    of ``workers`` processes (default: all cores) or on an existing cluster (``scheduler``).
+    Use it as a context manager so the cluster is started once for a whole run (the area's
+    windows, then the tiles) and closed at the end."""
+
+    def __init__(self, workers=None, scheduler=None):
+        self.workers = int(workers or os.environ.get("LIDARTREES_WORKERS", 0) or os.cpu_count() or 1)
+        self.scheduler = scheduler or None
+        self.client = self.cluster = None
+
+    def __enter__(self):
+        if self.workers > 1 or self.scheduler:
+            self.client, self.cluster = _client(self.workers, self.scheduler)
+        return self
+
+    def __exit__(self, *exc):
+        if self.client is not None:
+            self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()
+        self.client = self.cluster = None
+
+    def map(self, fn, items, args=(), *, progress=None, ordered=False, label="tile"):
+        """Yield ``fn(item, *args)`` for every item, as they finish (``ordered``: in order).
+        A cancel (or Ctrl-C) cancels the remaining tasks."""
+        prog = as_progress(progress)
+        n = len(items)
+        if self.client is None:
+            for k, it in enumerate(items):
+                check_cancel(prog)
+                yield fn(it, *args)
+                prog.update((k + 1) / n, f"{label} {k + 1}/{n}")
+            return
+        from dask.distributed import as_completed
+
+        futs = []
+        try:
+            futs = [self.client.submit(fn, it, *args, pure=False) for it in items]
+            for k, f in enumerate(futs if ordered else as_completed(futs)):
+                check_cancel(prog)
+                yield f.result()
+                f.release()
+                prog.update((k + 1) / n, f"{label} {k + 1}/{n}")
+        finally:
+            if futs:
+                self.client.cancel(futs)
+
+
+def run_tiles(fn, tiles, args, *, workers=None, scheduler=None, progress=None, runner=None):
+    """Run ``fn(tile, *args)`` for every tile and yield the results as they finish, on
+    ``runner`` or on a :class:`TileRunner` of ``workers`` / ``scheduler`` made for the call."""
+    if runner is not None:
+        yield from runner.map(fn, tiles, args, progress=progress)
         return
-    from dask.distributed import as_completed
-
-    client, cluster = _client(workers, scheduler)
-    futs = []
-    try:
-        futs = [client.submit(fn, t, *args, pure=False) for t in tiles]
-        for k, f in enumerate(as_completed(futs)):
-            check_cancel(prog)
-            yield f.result()
-            f.release()
-            prog.update((k + 1) / n, f"tile {k + 1}/{n}")
-    finally:
-        if futs:
-            client.cancel(futs)
-        client.close()
-        if cluster is not None:
-            cluster.close()
+    with TileRunner(workers, scheduler) as r:
+        yield from r.map(fn, tiles, args, progress=progress)
 
 
-def plan(catalog: Catalog, params, opts: dict, tile_size=None, buffer=None):
+def plan(catalog: Catalog, params, opts: dict, tile_size=None, buffer=None, runner=None):
     """Area parameters and tiles: ``(params with crown scale and dominant height, opts with the
     cell size, tiles, buffer)``."""
     from dataclasses import replace
 
-    ap = area_parameters(catalog, opts.get("res"), params, opts)
+    ap = area_parameters(catalog, opts.get("res"), params, opts, runner=runner)
     params = replace(params, crown_scale=ap["crown_scale"], dominant_height=ap["dominant_height"])
     opts = {**opts, "res": ap["res"], "max_edge": ap["max_edge"]}
     ts = float(tile_size) if tile_size else TILE_SIZE
@@ -369,94 +408,95 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
     check_outputs(outputs, catalog.files, overwrite)
     opts = _options(kw)
     prog.update(0.01, "area parameters")
-    p, opts, tiles, buf = plan(catalog, p, opts, tile_size, buffer)
-    res = opts["res"]
-    gspec = GridSpec.from_bounds(*catalog.extent, res, crs=catalog.crs)
-    crs = catalog.crs.to_wkt() if catalog.crs is not None else None
-    meta = {"lidartrees_version": __version__, "input": str(input),
-            "files": [str(f) for f in catalog.files], "res": res, **opts, **p.as_dict(),
-            "tiles": len(tiles), "buffer": buf}
-    meta = {k: (v if isinstance(v, str) else __import__("json").dumps(v, default=str))
-            for k, v in meta.items()}
-    names = {"tops": f"{nln}tree_tops", "crowns": f"{nln}crowns", "summary": f"{nln}summary"}
-    ids, n, hsum, h2sum, dsum = [], 0, 0.0, 0.0, 0.0
-    canopy, points, dropped, outliers = 0, 0, {}, 0
-    with contextlib.ExitStack() as stack:
-        tmp = stack.enter_context(atomic_output(output, overwrite=True))
-        existing = start_from_existing(out_path, tmp, append)
-        created = set()
+    with TileRunner(workers, scheduler) as runner:  # one cluster for the windows and the tiles
+        p, opts, tiles, buf = plan(catalog, p, opts, tile_size, buffer, runner=runner)
+        res = opts["res"]
+        gspec = GridSpec.from_bounds(*catalog.extent, res, crs=catalog.crs)
+        crs = catalog.crs.to_wkt() if catalog.crs is not None else None
+        meta = {"lidartrees_version": __version__, "input": str(input),
+                "files": [str(f) for f in catalog.files], "res": res, **opts, **p.as_dict(),
+                "tiles": len(tiles), "buffer": buf}
+        meta = {k: (v if isinstance(v, str) else __import__("json").dumps(v, default=str))
+                for k, v in meta.items()}
+        names = {"tops": f"{nln}tree_tops", "crowns": f"{nln}crowns", "summary": f"{nln}summary"}
+        ids, n, hsum, h2sum, dsum = [], 0, 0.0, 0.0, 0.0
+        canopy, points, dropped, outliers = 0, 0, {}, 0
+        with contextlib.ExitStack() as stack:
+            tmp = stack.enter_context(atomic_output(output, overwrite=True))
+            existing = start_from_existing(out_path, tmp, append)
+            created = set()
 
-        def put(df, layer, geometry_type=None):
+            def put(df, layer, geometry_type=None):
+                with warnings.catch_warnings():
+                    warnings.filterwarnings("ignore", message="'crs' was not provided")
+                    new = layer not in existing and layer not in created
+                    pyogrio.write_dataframe(df, tmp, layer=layer, driver="GPKG", append=not new,
+                                            layer_options=(layer_options or None) if new else None,
+                                            layer_metadata=meta if new else None,
+                                            geometry_type=geometry_type)
+                created.add(layer)
+
+            mosaic = None
+            if chm_out:
+                ctmp = stack.enter_context(atomic_output(chm_out, overwrite, param="-chm_out"))
+                mosaic = MosaicWriter(ctmp, gspec, creation_options=creation_options,
+                                      description="canopy height (m)",
+                                      tags={"LIDARTREES_COMMAND": "trees", "LIDARTREES_INPUT": str(input)})
+                stack.callback(mosaic.close)
+            for r in run_tiles(tile_trees, tiles, (catalog, p, opts), runner=runner,
+                               progress=SubProgress(prog, 0.02, 0.95)):
+                k = len(r["tree_id"])
+                if k:
+                    tops, crowns = _tree_frames(r, p.method, crs)
+                    put(tops, names["tops"], "Point")
+                    put(crowns, names["crowns"], "Polygon")
+                    ids.append(np.asarray(r["tree_id"], np.int64))
+                    h = np.asarray(r["height"], float)
+                    n += k
+                    hsum += float(h.sum())
+                    h2sum += float((h ** 2).sum())
+                    dsum += float(np.sum(r["crown_diameter"]))
+                canopy += r["canopy_cells"]
+                points += r["points"]
+                outliers += r["outlier_points"] or 0
+                for c, v in r["dropped"].items():
+                    dropped[c] = dropped.get(c, 0) + v
+                if mosaic is not None:
+                    mosaic.write(r["chm"], r["chm_left"], r["chm_top"])
+            if n == 0:  # the layers exist even without trees
+                import geopandas as gpd
+
+                empty = {c: pd.Series([], dtype="int64" if c in ("tree_id", "n_cells") else "float64")
+                         for c in ("tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_cells")}
+                empty["method"] = pd.Series([], dtype=object)
+                put(gpd.GeoDataFrame(empty, geometry=gpd.GeoSeries([], crs=crs)), names["tops"], "Point")
+                put(gpd.GeoDataFrame(empty, geometry=gpd.GeoSeries([], crs=crs)), names["crowns"], "Polygon")
+            area_ha = canopy * res * res / 1e4
+            mean_h = hsum / n if n else np.nan
+            sd_h = float(np.sqrt(max(h2sum - n * mean_h ** 2, 0.0) / (n - 1))) if n > 1 else np.nan
+            summary = pd.DataFrame([{
+                "trees": n, "area_ha": area_ha, "trees_per_ha": n / area_ha if area_ha else np.nan,
+                "mean_height": mean_h, "sd_height": sd_h,
+                "mean_crown_diameter": dsum / n if n else np.nan,
+                "method": p.method, "smooth": p.smooth, "tops": p.tops_finder, "res": res,
+                "crown_scale": p.crown_scale, "dominant_height": p.dominant_height,
+                "tiles": len(tiles), "tile_size": tiles[0].core[2] - tiles[0].core[0] if tiles else np.nan,
+                "buffer": buf, "points": catalog.count, "outlier_points": outliers,
+                "dropped_classes": ",".join(f"{c}:{v}" for c, v in sorted(dropped.items()))}])
             with warnings.catch_warnings():
-                warnings.filterwarnings("ignore", message="'crs' was not provided")
-                new = layer not in existing and layer not in created
-                pyogrio.write_dataframe(df, tmp, layer=layer, driver="GPKG", append=not new,
-                                        layer_options=(layer_options or None) if new else None,
-                                        layer_metadata=meta if new else None,
-                                        geometry_type=geometry_type)
-            created.add(layer)
-
-        mosaic = None
-        if chm_out:
-            ctmp = stack.enter_context(atomic_output(chm_out, overwrite, param="-chm_out"))
-            mosaic = MosaicWriter(ctmp, gspec, creation_options=creation_options,
-                                  description="canopy height (m)",
-                                  tags={"LIDARTREES_COMMAND": "trees", "LIDARTREES_INPUT": str(input)})
-            stack.callback(mosaic.close)
-        for r in run_tiles(tile_trees, tiles, (catalog, p, opts), workers=workers,
-                           scheduler=scheduler, progress=SubProgress(prog, 0.02, 0.95)):
-            k = len(r["tree_id"])
-            if k:
-                tops, crowns = _tree_frames(r, p.method, crs)
-                put(tops, names["tops"], "Point")
-                put(crowns, names["crowns"], "Polygon")
-                ids.append(np.asarray(r["tree_id"], np.int64))
-                h = np.asarray(r["height"], float)
-                n += k
-                hsum += float(h.sum())
-                h2sum += float((h ** 2).sum())
-                dsum += float(np.sum(r["crown_diameter"]))
-            canopy += r["canopy_cells"]
-            points += r["points"]
-            outliers += r["outlier_points"] or 0
-            for c, v in r["dropped"].items():
-                dropped[c] = dropped.get(c, 0) + v
-            if mosaic is not None:
-                mosaic.write(r["chm"], r["chm_left"], r["chm_top"])
-        if n == 0:  # the layers exist even without trees
-            import geopandas as gpd
-
-            empty = {c: pd.Series([], dtype="int64" if c in ("tree_id", "n_cells") else "float64")
-                     for c in ("tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_cells")}
-            empty["method"] = pd.Series([], dtype=object)
-            put(gpd.GeoDataFrame(empty, geometry=gpd.GeoSeries([], crs=crs)), names["tops"], "Point")
-            put(gpd.GeoDataFrame(empty, geometry=gpd.GeoSeries([], crs=crs)), names["crowns"], "Polygon")
-        area_ha = canopy * res * res / 1e4
-        mean_h = hsum / n if n else np.nan
-        sd_h = float(np.sqrt(max(h2sum - n * mean_h ** 2, 0.0) / (n - 1))) if n > 1 else np.nan
-        summary = pd.DataFrame([{
-            "trees": n, "area_ha": area_ha, "trees_per_ha": n / area_ha if area_ha else np.nan,
-            "mean_height": mean_h, "sd_height": sd_h,
-            "mean_crown_diameter": dsum / n if n else np.nan,
-            "method": p.method, "smooth": p.smooth, "tops": p.tops_finder, "res": res,
-            "crown_scale": p.crown_scale, "dominant_height": p.dominant_height,
-            "tiles": len(tiles), "tile_size": tiles[0].core[2] - tiles[0].core[0] if tiles else np.nan,
-            "buffer": buf, "points": catalog.count, "outlier_points": outliers,
-            "dropped_classes": ",".join(f"{c}:{v}" for c, v in sorted(dropped.items()))}])
-        with warnings.catch_warnings():
-            warnings.filterwarnings("ignore", message=".*geometry.*")
-            pyogrio.write_dataframe(summary, tmp, layer=names["summary"], driver="GPKG",
-                                    append=names["summary"] in existing)
-    prog.update(1.0, "done")
-    tree_ids = np.concatenate(ids) if ids else np.empty(0, np.int64)
-    return {"output": str(output), "trees": n, "crs": crs_label(catalog.crs), "files": len(catalog.files),
-            "points": catalog.count, "points_read": points, "tiles": len(tiles), "buffer": round(buf, 2),
-            "res": res, "crown_scale": round(float(p.crown_scale), 3),
-            "mean_height": round(mean_h, 2) if n else None,
-            "mean_crown_diameter": round(dsum / n, 2) if n else None,
-            "trees_per_ha": round(n / area_ha, 1) if area_ha else None,
-            "dropped_classes": {str(k): v for k, v in sorted(dropped.items())} or None,
-            "outlier_points": outliers or None, "table": None, "tree_ids": tree_ids}
+                warnings.filterwarnings("ignore", message=".*geometry.*")
+                pyogrio.write_dataframe(summary, tmp, layer=names["summary"], driver="GPKG",
+                                        append=names["summary"] in existing)
+        prog.update(1.0, "done")
+        tree_ids = np.concatenate(ids) if ids else np.empty(0, np.int64)
+        return {"output": str(output), "trees": n, "crs": crs_label(catalog.crs), "files": len(catalog.files),
+                "points": catalog.count, "points_read": points, "tiles": len(tiles), "buffer": round(buf, 2),
+                "res": res, "crown_scale": round(float(p.crown_scale), 3),
+                "mean_height": round(mean_h, 2) if n else None,
+                "mean_crown_diameter": round(dsum / n, 2) if n else None,
+                "trees_per_ha": round(n / area_ha, 1) if area_ha else None,
+                "dropped_classes": {str(k): v for k, v in sorted(dropped.items())} or None,
+                "outlier_points": outliers or None, "table": None, "tree_ids": tree_ids}
 
 
 def chm_tile(tile: Tile, catalog: Catalog, opts: dict) -> dict:
@@ -496,42 +536,43 @@ def chm_tiled(input, output, *, tile_size=None, buffer=None, workers=None, sched
     opts = _options(kw)
     from .trees import TreeParams
 
-    ap = area_parameters(catalog, opts["res"], TreeParams(crown_scale=1.0, dominant_height=1.0),
-                         opts)  # the same cell size and pit-free edge as trees_tiled
-    res = opts["res"] = ap["res"]
-    opts["max_edge"] = ap["max_edge"]
-    ts = float(tile_size) if tile_size else TILE_SIZE
-    if math.isfinite(ts):
-        ts = max(res, round(ts / res) * res)
-    buf = float(buffer) if buffer is not None else MIN_BUFFER
-    tiles = make_tiles(catalog.extent, ts, buf)
-    gspec = GridSpec.from_bounds(*catalog.extent, res, crs=catalog.crs)
-    tags = {"LIDARTREES_COMMAND": "chm", "LIDARTREES_INPUT": str(input),
-            "LIDARTREES_PARAMETERS": {**opts, "tiles": len(tiles), "buffer": buf}}
-    points, dropped, outliers = 0, {}, 0
-    with contextlib.ExitStack() as stack:
-        tmp = stack.enter_context(atomic_output(output, overwrite))
-        mos = MosaicWriter(tmp, gspec, creation_options=creation_options, tags=tags,
-                           description="canopy height (m)")
-        stack.callback(mos.close)
-        dmos = None
-        if dtm_out:
-            dtmp = stack.enter_context(atomic_output(dtm_out, overwrite, param="-dtm_out"))
-            dmos = MosaicWriter(dtmp, gspec, creation_options=creation_options, tags=tags,
-                                description="terrain height (m)")
-            stack.callback(dmos.close)
-        for r in run_tiles(chm_tile, tiles, (catalog, opts), workers=workers,
-                           scheduler=scheduler, progress=SubProgress(prog, 0.02, 0.98)):
-            mos.write(r["chm"], r["left"], r["top"])
-            if dmos is not None:
-                dmos.write(r["dtm"], r["left"], r["top"])
-            points += r["points"]
-            outliers += r["outlier_points"] or 0
-            for k, v in r["dropped"].items():
-                dropped[k] = dropped.get(k, 0) + v
-    prog.update(1.0, "done")
-    return {"output": str(output), "files": len(catalog.files), "points": catalog.count,
-            "points_read": points, "res": res,
-            "shape": gspec.shape, "tiles": len(tiles), "crs": crs_label(catalog.crs),
-            "dropped_classes": {str(k): v for k, v in sorted(dropped.items())} or None,
-            "outlier_points": outliers or None}
+    with TileRunner(workers, scheduler) as runner:  # one cluster for the windows and the tiles
+        ap = area_parameters(catalog, opts["res"], TreeParams(crown_scale=1.0, dominant_height=1.0),
+                             opts, runner=runner)  # the same cell size and edge as trees_tiled
+        res = opts["res"] = ap["res"]
+        opts["max_edge"] = ap["max_edge"]
+        ts = float(tile_size) if tile_size else TILE_SIZE
+        if math.isfinite(ts):
+            ts = max(res, round(ts / res) * res)
+        buf = float(buffer) if buffer is not None else MIN_BUFFER
+        tiles = make_tiles(catalog.extent, ts, buf)
+        gspec = GridSpec.from_bounds(*catalog.extent, res, crs=catalog.crs)
+        tags = {"LIDARTREES_COMMAND": "chm", "LIDARTREES_INPUT": str(input),
+                "LIDARTREES_PARAMETERS": {**opts, "tiles": len(tiles), "buffer": buf}}
+        points, dropped, outliers = 0, {}, 0
+        with contextlib.ExitStack() as stack:
+            tmp = stack.enter_context(atomic_output(output, overwrite))
+            mos = MosaicWriter(tmp, gspec, creation_options=creation_options, tags=tags,
+                               description="canopy height (m)")
+            stack.callback(mos.close)
+            dmos = None
+            if dtm_out:
+                dtmp = stack.enter_context(atomic_output(dtm_out, overwrite, param="-dtm_out"))
+                dmos = MosaicWriter(dtmp, gspec, creation_options=creation_options, tags=tags,
+                                    description="terrain height (m)")
+                stack.callback(dmos.close)
+            for r in run_tiles(chm_tile, tiles, (catalog, opts), runner=runner,
+                               progress=SubProgress(prog, 0.02, 0.98)):
+                mos.write(r["chm"], r["left"], r["top"])
+                if dmos is not None:
+                    dmos.write(r["dtm"], r["left"], r["top"])
+                points += r["points"]
+                outliers += r["outlier_points"] or 0
+                for k, v in r["dropped"].items():
+                    dropped[k] = dropped.get(k, 0) + v
+        prog.update(1.0, "done")
+        return {"output": str(output), "files": len(catalog.files), "points": catalog.count,
+                "points_read": points, "res": res,
+                "shape": gspec.shape, "tiles": len(tiles), "crs": crs_label(catalog.crs),
+                "dropped_classes": {str(k): v for k, v in sorted(dropped.items())} or None,
+                "outlier_points": outliers or None}
