@@ -96,13 +96,31 @@ def bcts_equality(tmp: Path) -> dict:
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--sizes", default="2,4,8,16")
+    ap.add_argument("--rss-sizes", default="",
+                    help="also run these sizes (M points) on two workers only, for peak memory "
+                         "(e.g. 64); with --sizes '' the results are added to the existing file")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "chain.json"))
     a = ap.parse_args()
-    sizes = [float(s) for s in a.sizes.split(",")]
+    sizes = [float(s) for s in a.sizes.split(",") if s.strip()]
+    rss_sizes = [float(s) for s in a.rss_sizes.split(",") if s.strip()]
     res = {"reported_in_issue": REPORTED, "R": shutil.which("Rscript") or "not found: lasR/lidR skipped",
            "chain": {}}
+    if not sizes and Path(a.out).exists():
+        res = json.loads(Path(a.out).read_text())
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
+        for m in rss_sizes:
+            folder = tmp / f"mp_{m:g}M"
+            files = make_copies(m * 1e6, folder)
+            print(f"{m:g} M points, 2 workers (memory)", file=sys.stderr, flush=True)
+            row = {"files": len(files), "workers_2": run_chain(folder, tmp / "out.gpkg", 2)}
+            res.setdefault("memory", {})[f"{m:g}M"] = row
+            print(json.dumps(row), file=sys.stderr, flush=True)
+            shutil.rmtree(folder)
+        if not sizes:
+            Path(a.out).write_text(json.dumps(res, indent=2))
+            print(json.dumps(res.get("memory"), indent=2))
+            return
         for m in sizes:
             folder = tmp / f"mp_{m:g}M"
             files = make_copies(m * 1e6, folder)

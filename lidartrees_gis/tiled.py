@@ -199,7 +199,9 @@ def tile_trees(tile: Tile, catalog: Catalog, params, opts: dict) -> dict:
     r0 = max(0, int(math.floor((spec.top - y1) / spec.res + 1e-9)))
     r1 = min(spec.height, int(math.ceil((spec.top - y0) / spec.res - 1e-9)))
     core = s["chm"][r0:r1, c0:c1]
-    out.update({"chm": core.astype(np.float32), "chm_left": spec.left + c0 * spec.res,
+    send = opts.get("return_chm", True)  # the core CHM goes back only for a -chm_out mosaic
+    out.update({"chm": core.astype(np.float32) if send else np.empty((0, 0), np.float32),
+                "chm_left": spec.left + c0 * spec.res,
                 "chm_top": spec.top - r0 * spec.res, "res": spec.res,
                 "canopy_cells": int(np.isfinite(core).sum()), "points": s["points"],
                 "dropped": s["dropped"], "outlier_points": s["outlier_points"],
@@ -443,13 +445,30 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
                                       description="canopy height (m)",
                                       tags={"LIDARTREES_COMMAND": "trees", "LIDARTREES_INPUT": str(input)})
                 stack.callback(mosaic.close)
-            for r in run_tiles(tile_trees, tiles, (catalog, p, opts), runner=runner,
+            pending, pending_rows = [], 0
+
+            def flush():
+                # tiles' trees written together: one GeoPackage write per ~20,000 trees, not
+                # two per tile (the writes are the calling process's main work)
+                nonlocal pending, pending_rows
+                if pending:
+                    import pandas as pd
+
+                    merged = {k: pd.concat([f[i] for f in pending], ignore_index=True)
+                              for i, k in enumerate(("tops", "crowns"))}
+                    put(merged["tops"], names["tops"], "Point")
+                    put(merged["crowns"], names["crowns"], "Polygon")
+                pending, pending_rows = [], 0
+
+            topts = {**opts, "return_chm": mosaic is not None}
+            for r in run_tiles(tile_trees, tiles, (catalog, p, topts), runner=runner,
                                progress=SubProgress(prog, 0.02, 0.95)):
                 k = len(r["tree_id"])
                 if k:
-                    tops, crowns = _tree_frames(r, p.method, crs)
-                    put(tops, names["tops"], "Point")
-                    put(crowns, names["crowns"], "Polygon")
+                    pending.append(_tree_frames(r, p.method, crs))
+                    pending_rows += k
+                    if pending_rows >= 20_000:
+                        flush()
                     ids.append(np.asarray(r["tree_id"], np.int64))
                     h = np.asarray(r["height"], float)
                     n += k
@@ -463,6 +482,7 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
                     dropped[c] = dropped.get(c, 0) + v
                 if mosaic is not None:
                     mosaic.write(r["chm"], r["chm_left"], r["chm_top"])
+            flush()
             if n == 0:  # the layers exist even without trees
                 import geopandas as gpd
 
