@@ -261,7 +261,8 @@ class TileRunner:
         try:
             # the arguments (the catalog above all) go to the workers once, not with every
             # task: the client and scheduler held a copy per task, files x tiles in all
-            shared = [self.client.scatter(a, broadcast=True, hash=False) for a in args]
+            shared = [self.client.scatter(a, broadcast=True, hash=False)
+                      if isinstance(a, Catalog) else a for a in args]
             futs = [self.client.submit(fn, it, *shared, pure=False) for it in items]
             for k, f in enumerate(futs if ordered else as_completed(futs)):
                 check_cancel(prog)
