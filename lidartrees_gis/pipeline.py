@@ -582,6 +582,14 @@ def nice_step(span: float, classes: int = 6) -> float:
     return float(min(cands, key=lambda st: (abs(math.ceil(span / st - 1e-9) - classes), st)))
 
 
+def height_classes(top: float, classes: int = 6) -> list:
+    """Upper limits of the CHM legend's classes: a round width (:func:`nice_step`) from 0 to
+    just above ``top``, at least two classes (quick look, QGIS style)."""
+    step = nice_step(max(float(top), 1.0), classes)
+    n = max(2, math.ceil(float(top) / step - 1e-9))
+    return [(i + 1) * step for i in range(n)]
+
+
 def round_length(length: float) -> float:
     """The largest 1, 2 or 5 times a power of ten not above ``length`` (scale bars)."""
     length = max(float(length), 1e-9)
@@ -610,10 +618,7 @@ def write_quicklook(path, chm, labels, rows, cols, *, spec=None, title=None, ove
     h, w = a.shape
     finite = a[np.isfinite(a)]
     top = float(np.nanpercentile(finite, 99.5)) if finite.size else 1.0
-    step = nice_step(max(top, 1.0), 6)
-    bounds = np.arange(0.0, top + step, step)
-    if bounds.size < 3:
-        bounds = np.array([0.0, step, 2 * step])
+    bounds = np.array([0.0] + height_classes(top))
     cmap = plt.get_cmap("YlGn", bounds.size - 1).with_extremes(bad="#d9d9d9")
     if spec is not None:
         left, right = spec.left, spec.left + w * spec.res

@@ -70,23 +70,20 @@ def _window_edge(box, catalog: Catalog, opts: dict, res: float) -> float:
     return pitfree_edge(n_first, len(cells) * res * res) if cells else float("nan")
 
 
-def _window_density(box, catalog: Catalog, opts: dict) -> tuple:
-    """Points and first returns per m² inside ``box``, over the 1 m cells that hold points (so
-    edges, gaps between files and a file's empty corners do not count)."""
+def _window_density(box, catalog: Catalog, opts: dict) -> float:
+    """Points per m² inside ``box``, over the 1 m cells that hold points (so edges, gaps
+    between files and a file's empty corners do not count)."""
     from .pipeline import parse_classes
 
     src = TileSource(catalog, box)
     src.set_class_filter(drop=parse_classes(opts["drop_class"]) or (),
                          keep=parse_classes(opts["keep_class"], "-keep_class"))
-    n, n_first, cells = 0, 0, set()
+    n, cells = 0, set()
     for c in src.chunks():
         n += len(c)
-        n_first += len(c) if c.return_number is None else int((c.return_number <= 1).sum())
         cells.update(np.unique(np.floor(c.x).astype(np.int64) * 10_000_019
                                + np.floor(c.y).astype(np.int64)).tolist())
-    if not cells:
-        return float("nan"), float("nan")
-    return n / len(cells), n_first / len(cells)
+    return n / len(cells) if cells else float("nan")
 
 
 def _window_canopy(box, catalog: Catalog, opts: dict, min_height: float, want_scale: bool):
@@ -135,11 +132,10 @@ def area_parameters(catalog: Catalog, res, params, opts: dict, *, window: float 
             if box not in boxes:
                 boxes.append(box)
     run = runner.map if runner is not None else TileRunner(1).map
-    pairs = [d for d in run(_window_density, boxes, (catalog, opts), ordered=True)
-             if np.isfinite(d[0])]
-    if not pairs:
+    dens = [d for d in run(_window_density, boxes, (catalog, opts), ordered=True)
+            if np.isfinite(d)]
+    if not dens:
         raise InputError(f"{catalog.files[0]}: no points found to measure the point density")
-    dens = [d[0] for d in pairs]
     r = fixed_res if fixed_res is not None else chm_resolution(int(round(np.median(dens) * 1e6)), 1e6)
     out["res"] = r
     # the pit-free edge limit of the area (the single-file rule, median of the windows), the
@@ -272,16 +268,6 @@ class TileRunner:
         finally:
             if futs:
                 self.client.cancel(futs)
-
-
-def run_tiles(fn, tiles, args, *, workers=None, scheduler=None, progress=None, runner=None):
-    """Run ``fn(tile, *args)`` for every tile and yield the results as they finish, on
-    ``runner`` or on a :class:`TileRunner` of ``workers`` / ``scheduler`` made for the call."""
-    if runner is not None:
-        yield from runner.map(fn, tiles, args, progress=progress)
-        return
-    with TileRunner(workers, scheduler) as r:
-        yield from r.map(fn, tiles, args, progress=progress)
 
 
 def plan(catalog: Catalog, params, opts: dict, tile_size=None, buffer=None, runner=None):
@@ -465,8 +451,8 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
                 pending, pending_rows = [], 0
 
             topts = {**opts, "return_chm": mosaic is not None}
-            for r in run_tiles(tile_trees, tiles, (catalog, p, topts), runner=runner,
-                               progress=SubProgress(prog, 0.02, 0.95)):
+            for r in runner.map(tile_trees, tiles, (catalog, p, topts),
+                                progress=SubProgress(prog, 0.02, 0.95)):
                 k = len(r["tree_id"])
                 if k:
                     pending.append(_tree_frames(r, p.method, crs))
@@ -585,8 +571,8 @@ def chm_tiled(input, output, *, tile_size=None, buffer=None, workers=None, sched
                 dmos = MosaicWriter(dtmp, gspec, creation_options=creation_options, tags=tags,
                                     description="terrain height (m)")
                 stack.callback(dmos.close)
-            for r in run_tiles(chm_tile, tiles, (catalog, opts), runner=runner,
-                               progress=SubProgress(prog, 0.02, 0.98)):
+            for r in runner.map(chm_tile, tiles, (catalog, opts),
+                                progress=SubProgress(prog, 0.02, 0.98)):
                 mos.write(r["chm"], r["left"], r["top"])
                 if dmos is not None:
                     dmos.write(r["dtm"], r["left"], r["top"])

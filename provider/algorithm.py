@@ -83,15 +83,26 @@ class _Style(QgsProcessingLayerPostProcessorInterface):
             layer.triggerRepaint()
 
 
+def chm_ramp_items(limits, colours) -> list:
+    """Discrete colour-ramp items for class upper ``limits`` (m), ``colours`` spread over them,
+    labelled "lo - hi m" (also used by styles/make_styles.py to write chm.qml)."""
+    from qgis.core import QgsColorRampShader
+
+    n, lows = len(limits), [0.0] + list(limits[:-1])
+    return [QgsColorRampShader.ColorRampItem(
+        hi, colours[round(i * (len(colours) - 1) / max(n - 1, 1))], f"{lo:g} - {hi:g} m")
+        for i, (lo, hi) in enumerate(zip(lows, limits))]
+
+
 def fit_chm_classes(layer, classes: int = 6) -> list:
     """Re-fit the CHM style's discrete classes to this layer's own range: about ``classes``
     classes of a round width (1, 2 or 5 m...) from 0 to the highest cell, in the style's
     colours. Returns the class upper limits."""
     import math
 
-    from qgis.core import QgsColorRampShader, QgsRasterBandStats
+    from qgis.core import QgsRasterBandStats
 
-    from lidartrees_gis.pipeline import nice_step
+    from lidartrees_gis.pipeline import height_classes
 
     rend = layer.renderer()
     shader = getattr(rend, "shader", lambda: None)()
@@ -102,16 +113,12 @@ def fit_chm_classes(layer, classes: int = 6) -> list:
     top = layer.dataProvider().bandStatistics(1, QgsRasterBandStats.Max).maximumValue
     if not colours or not math.isfinite(top) or top <= 0:
         return []
-    step = nice_step(top, classes)
-    n = max(2, math.ceil(top / step))
-    items = [QgsColorRampShader.ColorRampItem(
-        (i + 1) * step, colours[round(i * (len(colours) - 1) / (n - 1))],
-        f"{i * step:g} - {(i + 1) * step:g} m") for i in range(n)]
+    items = chm_ramp_items(height_classes(top, classes), colours)
     fn.setColorRampItemList(items)
     fn.setMinimumValue(0.0)
-    fn.setMaximumValue(n * step)
+    fn.setMaximumValue(items[-1].value)
     rend.setClassificationMin(0.0)
-    rend.setClassificationMax(n * step)
+    rend.setClassificationMax(items[-1].value)
     return [it.value for it in items]
 
 

@@ -42,17 +42,14 @@ CHM_COLOURS = ["#ffffe5", "#d9f0a3", "#addd8e", "#78c679", "#31a354", "#006837",
 
 
 def chm_items(top: float, classes: int = 6):
-    """Colour-ramp items: ``classes`` discrete classes of a round width from 0 to ``top``."""
-    import math
+    """Colour-ramp items: ``classes`` discrete classes of a round width from 0 to ``top``, by
+    the rule the toolbox uses when it re-fits them to a loaded CHM."""
+    sys.path.insert(0, str(HERE.parent))
+    from provider.algorithm import chm_ramp_items
 
-    from lidartrees_gis.pipeline import nice_step
+    from lidartrees_gis.pipeline import height_classes
 
-    step = nice_step(max(top, 1.0), classes)
-    n = max(2, math.ceil(max(top, 1.0) / step))
-    cols = [CHM_COLOURS[round(i * (len(CHM_COLOURS) - 1) / max(n - 1, 1))] for i in range(n)]
-    return [QgsColorRampShader.ColorRampItem((i + 1) * step, QColor(c),
-                                             f"{i * step:g} - {(i + 1) * step:g} m")
-            for i, c in enumerate(cols)]
+    return chm_ramp_items(height_classes(top, classes), [QColor(c) for c in CHM_COLOURS])
 
 
 def chm_style(path, out):
