@@ -75,12 +75,38 @@ def accumulate(x, y, z, left, bottom, res, height, width, eps, count, mx, mn, sm
     return _accumulate_nb(x, y, z, left, bottom, res, height, width, eps, count, mx, mn, sm)
 
 
-def _raster_triangles_py(px, py, pz, tri, max_edge, left, top, res, height, width, out):
+def _lowest_py(idx, x, y, z, cz, cx, cy, count):
+    """Lowest point of each cell ``idx[i]``: counts, and ``(cz, cx, cy)`` replaced where a point
+    is lower, ties in z going to the lowest x, then y (order-independent)."""
+    for i in range(idx.shape[0]):
+        k = idx[i]
+        count[k] += 1
+        zi, xi = z[i], x[i]
+        if zi < cz[k] or (zi == cz[k] and (xi < cx[k] or (xi == cx[k] and y[i] < cy[k]))):
+            cz[k] = zi
+            cx[k] = xi
+            cy[k] = y[i]
+
+
+_lowest_nb = _jit(_lowest_py)
+
+
+def lowest(idx, x, y, z, cz, cx, cy, count) -> None:
+    """Compiled :func:`_lowest_py` (numba only; callers use the numpy path when missing)."""
+    if idx.size and (idx.min() < 0 or idx.max() >= min(cz.size, cx.size, cy.size, count.size)):
+        raise ValueError("lowest: a cell index is outside the grid")
+    _lowest_nb(idx, x, y, z, cz, cx, cy, count)
+
+
+def _raster_triangles_py(px, py, pz, tri, max_edge, left, top, res, height, width, out,
+                         max_radius=0.0):
     """Linear interpolation of each triangle at the cell centres it covers, kept where higher
     than ``out`` (NaN in ``out`` counts as lowest). Triangles with an edge longer than
-    ``max_edge`` (> 0) are skipped. Returns the number of triangles drawn."""
+    ``max_edge`` (> 0) or a circumradius larger than ``max_radius`` (> 0) are skipped. Returns
+    the number of triangles drawn."""
     drawn = 0
     me2 = max_edge * max_edge
+    four_r2 = 4.0 * max_radius * max_radius
     for t in range(tri.shape[0]):
         a, b, c = tri[t, 0], tri[t, 1], tri[t, 2]
         ax, ay, az = px[a], py[a], pz[a]
@@ -93,6 +119,12 @@ def _raster_triangles_py(px, py, pz, tri, max_edge, left, top, res, height, widt
         det = (by - cy) * (ax - cx) + (cx - bx) * (ay - cy)
         if det == 0.0 or not (abs(det) < np.inf):  # degenerate, or a coordinate not a number
             continue
+        if max_radius > 0.0:
+            # circumradius R = |ab| |bc| |ca| / (2 |det|): kept when R <= max_radius
+            e2 = (((ax - bx) ** 2 + (ay - by) ** 2) * ((bx - cx) ** 2 + (by - cy) ** 2)
+                  * ((cx - ax) ** 2 + (cy - ay) ** 2))
+            if not (e2 <= four_r2 * det * det):
+                continue
         xmin = min(ax, bx, cx)
         xmax = max(ax, bx, cx)
         ymin = min(ay, by, cy)
@@ -135,10 +167,12 @@ def _raster_triangles_py(px, py, pz, tri, max_edge, left, top, res, height, widt
 _raster_triangles_nb = _jit(_raster_triangles_py)
 
 
-def raster_triangles(px, py, pz, tri, max_edge, left, top, res, height, width, out) -> int:
+def raster_triangles(px, py, pz, tri, max_edge, left, top, res, height, width, out,
+                     max_radius=0.0) -> int:
     """Compiled triangle rasteriser (numba only; callers use the numpy path when missing)."""
     if tri.size and (tri.min() < 0 or tri.max() >= min(px.shape[0], py.shape[0], pz.shape[0])):
         raise ValueError("raster_triangles: a triangle refers to a point that does not exist")
     if out.shape != (height, width):
         raise ValueError(f"raster_triangles: out is {out.shape}, expected {(height, width)}")
-    return _raster_triangles_nb(px, py, pz, tri, max_edge, left, top, res, height, width, out)
+    return _raster_triangles_nb(px, py, pz, tri, float(max_edge), float(left), float(top),
+                                float(res), int(height), int(width), out, float(max_radius))

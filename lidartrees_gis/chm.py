@@ -67,18 +67,6 @@ def _centres_where(spec: GridSpec, mask):
     return r, c, x, y
 
 
-def _circumradius(px, py, tri):
-    ax, ay = px[tri[:, 0]], py[tri[:, 0]]
-    bx, by = px[tri[:, 1]], py[tri[:, 1]]
-    cx, cy = px[tri[:, 2]], py[tri[:, 2]]
-    a = np.hypot(bx - cx, by - cy)
-    b = np.hypot(ax - cx, ay - cy)
-    c = np.hypot(ax - bx, ay - by)
-    area2 = np.abs((bx - ax) * (cy - ay) - (cx - ax) * (by - ay))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(area2 > 0, a * b * c / (2.0 * area2), np.inf)
-
-
 def _morton_order(x, y, cell: float = 1.0):
     """Indices that sort points along a Morton curve of ``cell``-metre cells."""
     def spread(v):
@@ -176,11 +164,10 @@ def tin_surface(x, y, z, spec: GridSpec, *, max_edge: float = 0.0, cells=None,
             px, py, pz, simp = triangulate(x - x0 + jx, y - y0 + jy, z)
         except (QhullError, ValueError, RuntimeError):
             return out
-        if max_radius and max_radius > 0 and len(simp):
-            simp = simp[_circumradius(px, py, simp) <= max_radius]
         if len(simp):
             _accel.raster_triangles(px, py, pz, simp, float(max_edge), spec.left - x0,
-                                    spec.top - y0, spec.res, spec.height, spec.width, out)
+                                    spec.top - y0, spec.res, spec.height, spec.width, out,
+                                    max_radius=float(max_radius or 0.0))
         return out
     pts = np.column_stack([x - x0, y - y0])
     try:
@@ -244,6 +231,8 @@ def pitfree_chm(x, y, zn, spec: GridSpec, *, thresholds=PITFREE_THRESHOLDS, max_
 
     ts = sorted(float(t) for t in thresholds)
     out = np.full(spec.shape, np.nan)
+    if _accel.HAVE_NUMBA and _startinpy() is not None:
+        return _pitfree_incremental(x, y, zn, spec, ts, max_edge, out)
     reach = None
     for i, t in enumerate(ts):
         sel = zn >= t
@@ -267,6 +256,59 @@ def pitfree_chm(x, y, zn, spec: GridSpec, *, thresholds=PITFREE_THRESHOLDS, max_
             cells = near >= t
         tin_surface(x[sel], y[sel], zn[sel], spec, max_edge=edge, cells=cells, out=out,
                     max_radius=LOCAL_RADIUS)
+    return out
+
+
+def _startinpy():
+    try:
+        import startinpy
+    except ImportError:  # pragma: no cover - depends on the environment
+        return None
+    return startinpy
+
+
+def _pitfree_incremental(x, y, zn, spec: GridSpec, ts, max_edge, out) -> np.ndarray:
+    """The layers of :func:`pitfree_chm` from one triangulation, built from the top layer down.
+
+    Layer ``t``'s points are those of the layer above plus the points in ``[t, t_above)``, and a
+    Delaunay triangulation does not depend on the order its points are inserted in (the
+    :func:`tiebreak` offsets keep the points in general position), so inserting each band into
+    the triangulation of the layers above gives every layer's triangulation with each point
+    inserted once instead of once per layer (3-5x fewer insertions in a forest). Each layer's
+    triangles are drawn as soon as its band is in.
+    """
+    from . import _accel
+
+    startinpy = _startinpy()
+    counts = [int(np.count_nonzero(zn >= t)) for t in ts]
+    layers = [i for i in range(len(ts)) if counts[i] >= 3 and all(c >= 3 for c in counts[:i])]
+    if not layers:
+        return out
+    x0, y0 = float(x.min()), float(y.min())
+    jx, jy = tiebreak(x, y)
+    lx, ly = x - x0 + jx, y - y0 + jy
+    order = _morton_order(lx, ly)
+    zo = zn[order]
+    dt = startinpy.DT()
+    try:
+        dt.duplicates_handling = "Highest"
+        upper = np.inf
+        for i in reversed(layers):
+            band = order[(zo >= ts[i]) & (zo < upper)]  # still along the Morton curve
+            upper = ts[i]
+            if band.size:
+                dt.insert(np.column_stack([lx[band], ly[band], zn[band]]))
+            p = np.asarray(dt.points)
+            tri = np.asarray(dt.triangles, dtype=np.int64)
+            if len(tri):
+                edge = max_edge[0] if i == 0 else max_edge[1]
+                _accel.raster_triangles(p[:, 0], p[:, 1], p[:, 2], tri, float(edge),
+                                        spec.left - x0, spec.top - y0, spec.res, spec.height,
+                                        spec.width, out, max_radius=LOCAL_RADIUS)
+    except (ValueError, RuntimeError):  # a triangulation that cannot be built draws nothing
+        return out
+    finally:
+        del dt  # dropped by the thread that made it (see triangulate)
     return out
 
 

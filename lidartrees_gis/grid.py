@@ -385,6 +385,10 @@ class LowestPoints:
         x, y, z = np.asarray(x)[ok], np.asarray(y)[ok], np.asarray(z)[ok]
         if not idx.size:
             return
+        if _accel.HAVE_NUMBA:
+            _accel.lowest(idx.astype(np.int64), x.astype(np.float64), y.astype(np.float64),
+                          z.astype(np.float64), self.z, self.x, self.y, self.count)
+            return
         self.count += np.bincount(idx, minlength=self.count.size)
         # ties in z go to the lowest x, then y: the same point whatever the order of the file
         order = np.lexsort((y, x, z, idx))

@@ -155,3 +155,51 @@ def test_nanpercentile_last_is_numpys_nanpercentile():
             warnings.simplefilter("ignore", RuntimeWarning)
             ref = np.nanpercentile(a, q, axis=2)
         np.testing.assert_array_equal(nanpercentile_last(a, q), ref)
+
+
+@pytest.mark.skipif(not _accel.HAVE_NUMBA, reason="numba not installed")
+def test_pitfree_from_one_triangulation_equals_one_triangulation_per_layer(monkeypatch):
+    """The layers are built from the top down in one triangulation (each point inserted once);
+    the CHM must equal the one from a separate triangulation of every layer."""
+    from lidartrees_gis import chm as chm_mod
+
+    rng = np.random.default_rng(8)
+    parts = []
+    for cx, cy, top in ((3, 3, 22.0), (9, 4, 14.0), (5, 10, 8.0), (11, 11, 3.5)):
+        x, y, z = _cone_points(rng, n=1500, top=top, radius=2.5, ground_share=0.2)
+        inside = rng.random(z.size) < 0.3  # returns from inside the crown, at any depth
+        z[inside] *= rng.uniform(0.1, 1.0, inside.sum())
+        parts.append((x + cx, y + cy, z))
+    x, y, z = (np.concatenate(p) for p in zip(*parts))
+    x, y = x + 500_000, y + 7_000_000
+    spec = GridSpec.from_bounds(500_000 - 1, 7_000_000 - 1, 500_015, 7_000_015, 0.25)
+    one = pitfree_chm(x, y, z, spec, max_edge=(0.0, 0.6))
+    monkeypatch.setattr(chm_mod, "_startinpy", lambda: None)
+    per_layer = pitfree_chm(x, y, z, spec, max_edge=(0.0, 0.6))
+    assert np.array_equal(np.isnan(one), np.isnan(per_layer))
+    np.testing.assert_allclose(one, per_layer, atol=1e-9)
+    # and the upper layers did fill something the first (all points) layer alone leaves low
+    first = tin_surface(x, y, z, spec, max_radius=chm_mod.LOCAL_RADIUS)
+    assert (one > first + 1.0).sum() > 20
+
+
+@pytest.mark.skipif(not _accel.HAVE_NUMBA, reason="numba not installed")
+def test_compiled_lowest_points_equal_numpy(monkeypatch):
+    from lidartrees_gis.grid import LowestPoints
+
+    rng = np.random.default_rng(9)
+    x = np.round(rng.random(20_000) * 10, 2)
+    y = np.round(rng.random(20_000) * 10, 2)
+    z = np.round(rng.integers(0, 4, 20_000) * 0.01, 2)  # many ties in z within a cell
+    spec = GridSpec.from_bounds(0, 0, 10, 10, 1.0)
+    got = []
+    for numba_on in (True, False):
+        monkeypatch.setattr(_accel, "HAVE_NUMBA", numba_on)
+        lp = LowestPoints(spec)
+        for part in np.array_split(rng.permutation(x.size), 3):  # chunk by chunk
+            lp.add(x[part], y[part], z[part])
+        got.append((lp.z.copy(), lp.x.copy(), lp.y.copy(), lp.count.copy()))
+    for a, b in zip(*got):
+        assert np.array_equal(a, b)
+    full = got[0][3] > 100  # the 100 cells inside the points' square
+    assert full.sum() == 100 and (got[0][0][full] == 0).all()
