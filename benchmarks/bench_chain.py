@@ -1,7 +1,8 @@
 """The whole chain on many tiles (issue 10): LAZ files -> pit-free CHM -> tops -> crowns -> crown
 polygons in a GeoPackage, with the default options, at 2, 4, 8 and 16 M points (copies of
 lidR's Megaplot laid side by side as separate files, as the issue measured), on one worker (in
-process) and on a local Dask cluster of two; wall time and peak RSS of the largest process.
+process, pinned to one core) and on a local Dask cluster of two; wall time and peak RSS of the
+largest process.
 Also tiled = untiled on the four lasR_bcts tiles. When R with lasR/lidR is on the PATH their
 chains run in the same run (skipped otherwise: R is not installable on this machine).
 
@@ -54,8 +55,11 @@ def make_copies(n_points: float, out: Path) -> list:
 
 def run_chain(folder: Path, out: Path, workers: int) -> dict:
     """One chain in a fresh process: wall time, trees, peak RSS of the largest process."""
-    code = ("import sys, json, time; sys.path.insert(0, %r)\n"
-            "from lidartrees_gis.tiled import trees_tiled\n"
+    # one worker = one core, as the issue measured (one thread): the process is pinned to a
+    # single CPU, so the parallel LAZ decompressor cannot borrow the second core
+    code = ("import sys, json, time, os; sys.path.insert(0, %r)\n"
+            + ("os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})\n" if workers == 1 else "")
+            + "from lidartrees_gis.tiled import trees_tiled\n"
             "t = time.perf_counter()\n"
             "r = trees_tiled(%r, %r, workers=%d, overwrite=True)\n"
             "import resource\n"

@@ -90,6 +90,21 @@ def test_dask_cluster_gives_the_same_trees(split_stand, tmp_path):
     assert set(one["tree_ids"]) == set(two["tree_ids"]) and one["tiles"] == two["tiles"] > 1
 
 
+def test_laz_is_decompressed_on_one_thread_inside_a_dask_worker():
+    """A worker's siblings already use the other cores: the parallel LAZ decompressor there
+    only oversubscribes them (a single process keeps it)."""
+    pytest.importorskip("dask.distributed")
+    import laspy
+
+    from lidartrees_gis.io.points import laz_backend
+    from lidartrees_gis.tiled import TileRunner
+
+    assert laz_backend() is None  # laspy's default, parallel
+    with TileRunner(2) as runner:
+        got = list(runner.map(lambda _: laz_backend(), [0, 1], ordered=True))
+    assert got == [laspy.LazBackend.Lazrs] * 2
+
+
 def test_chm_mosaic_is_seamless(split_stand, tmp_path):
     d, _, _ = split_stand
     assert main(["chm", str(d), str(tmp_path / "m.tif"), "-tile_size", "20", "-workers", "1",

@@ -9,6 +9,7 @@ from __future__ import annotations
 import gzip
 import io
 import re
+import sys
 import warnings
 import zlib
 from dataclasses import dataclass, field
@@ -382,7 +383,7 @@ class PointSource:
         prog = as_progress(progress)
         try:
             out_hdr = 0
-            with laspy.open(self.path) as reader:
+            with laspy.open(self.path, laz_backend=laz_backend()) as reader:
                 total = max(int(reader.header.point_count), 1)
                 done = 0
                 dims = set(reader.header.point_format.dimension_names)
@@ -622,6 +623,24 @@ def _check_las_header(path, h, count):
     elif count > 100 * size:  # LAZ: no point takes less than a bit or so
         raise ReadError(f"{path}: the header says {count:,} points, impossible in a "
                         f"{size:,}-byte LAZ file; the header is wrong")
+
+
+def laz_backend():
+    """LAZ decompressor for this process: laspy's default (lazrs on all cores) in a single
+    process, one thread inside a Dask worker, whose siblings already use the other cores (a
+    parallel decompressor per worker only oversubscribes them)."""
+    if "distributed" in sys.modules:
+        from distributed import get_worker
+
+        try:
+            get_worker()
+        except ValueError:  # not in a worker
+            return None
+        import laspy
+
+        if laspy.LazBackend.Lazrs.is_available():
+            return laspy.LazBackend.Lazrs
+    return None
 
 
 def open_points(path, *, a_srs=None, t_srs=None, delimiter=None, decimal_comma=None,
