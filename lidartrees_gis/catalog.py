@@ -16,6 +16,7 @@ from __future__ import annotations
 import glob
 import json
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -248,6 +249,65 @@ def make_tiles(extent, tile_size: float, buffer: float) -> list:
     return tiles
 
 
+#: decompressed points kept per process (bytes), so that the neighbouring tiles whose buffers
+#: reach into a file do not decompress it again; files over half of it are never kept
+READ_CACHE_BYTES = int(float(os.environ.get("LIDARTREES_READ_CACHE_MB", 128)) * 2 ** 20)
+
+
+class ReadCache:
+    """The points of recently read files (after the class filter), least recently used dropped
+    first, at most ``budget`` bytes. Keyed by path, size and modification time and by how the
+    file is read, so a changed file is read again."""
+
+    def __init__(self, budget: int = READ_CACHE_BYTES):
+        from collections import OrderedDict
+
+        self.budget = int(budget)
+        self.items: "OrderedDict" = OrderedDict()
+        self.nbytes = 0
+        self.hits = self.misses = 0
+
+    @staticmethod
+    def key(path, read_kw: dict, drop, keep):
+        st = Path(path).stat()
+        return (str(Path(path).resolve()), st.st_size, st.st_mtime_ns,
+                repr(sorted(read_kw.items())), tuple(sorted(drop)),
+                None if keep is None else tuple(sorted(keep)))
+
+    def get(self, key):
+        hit = self.items.get(key)
+        if hit is None:
+            self.misses += 1
+            return None
+        self.hits += 1
+        self.items.move_to_end(key)
+        return hit[0], hit[1]
+
+    def put(self, key, chunks: list, dropped: dict) -> None:
+        size = sum(_chunk_nbytes(c) for c in chunks)
+        if size > self.budget // 2 or key in self.items:
+            return
+        self.items[key] = (chunks, dict(dropped), size)
+        self.nbytes += size
+        while self.nbytes > self.budget and self.items:
+            _, (_, _, n) = self.items.popitem(last=False)
+            self.nbytes -= n
+
+    def clear(self) -> None:
+        self.items.clear()
+        self.nbytes = 0
+
+
+def _chunk_nbytes(c: PointChunk) -> int:
+    arrays = [c.x, c.y, c.z, c.classification, c.return_number, c.number_of_returns, c.intensity,
+              *c.extra.values()]
+    return int(sum(a.nbytes for a in arrays if a is not None))
+
+
+#: this process's cache (each Dask worker has its own)
+READ_CACHE = ReadCache()
+
+
 class TileSource:
     """The points of a catalog inside one box, for :func:`~lidartrees_gis.pipeline.compute_surfaces`.
 
@@ -286,16 +346,36 @@ class TileSource:
 
         x0, y0, x1, y1 = self.box
         self.dropped = {}
+        cache = READ_CACHE
         for f in self.files:
             kw = {k: v for k, v in self.catalog.read_kw.items() if v is not None}
-            src = open_points(f, chunk_size=self.chunk_size, **kw)
-            src.set_class_filter(self.drop_classes, None if self.keep_classes is None
-                                 else sorted(self.keep_classes))
-            for c in src.chunks():
+            try:
+                key = cache.key(f, kw, self.drop_classes, self.keep_classes)
+            except OSError:  # gone: open_points says so
+                key = None
+            hit = None if key is None else cache.get(key)
+            if hit is not None:
+                chunks, dropped = hit
+            else:
+                src = open_points(f, chunk_size=self.chunk_size, **kw)
+                src.set_class_filter(self.drop_classes, None if self.keep_classes is None
+                                     else sorted(self.keep_classes))
+                chunks, kept, kept_bytes = src.chunks(), ([] if key is not None else None), 0
+            for c in chunks:
+                if hit is None and kept is not None:
+                    # own arrays: a view would keep the reader's whole point record buffer
+                    kept.append(c.subset(np.ones(len(c), bool)))
+                    kept_bytes += _chunk_nbytes(kept[-1])
+                    if kept_bytes > cache.budget // 2:  # too big to keep anyway
+                        kept = None
                 m = (c.x >= x0) & (c.x <= x1) & (c.y >= y0) & (c.y <= y1)
                 if m.any():
-                    yield c.subset(m) if not m.all() else c
-            for k, v in src.dropped.items():
+                    yield c.subset(m)  # a copy: what is kept is never handed out
+            if hit is None:
+                dropped = src.dropped
+                if kept is not None:
+                    cache.put(key, kept, dropped)
+            for k, v in dropped.items():
                 self.dropped[k] = self.dropped.get(k, 0) + v
 
     def read_all(self, progress=None) -> PointChunk:
@@ -318,5 +398,5 @@ def is_catalog_input(inputs) -> bool:
     return p.suffix.lower() == ".txt" and p.exists() and _is_list(p)
 
 
-__all__ = ["Catalog", "Tile", "TileSource", "expand_inputs", "is_ept", "ept_crs", "make_tiles", "is_catalog_input",
+__all__ = ["Catalog", "ReadCache", "READ_CACHE", "Tile", "TileSource", "expand_inputs", "is_ept", "ept_crs", "make_tiles", "is_catalog_input",
            "LAS_SUFFIXES"]

@@ -94,6 +94,9 @@ def test_laz_is_decompressed_on_one_thread_inside_a_dask_worker():
     """A worker's siblings already use the other cores: the parallel LAZ decompressor there
     only oversubscribes them (a single process keeps it)."""
     pytest.importorskip("dask.distributed")
+    import os
+
+    import dask
     import laspy
 
     from lidartrees_gis.io.points import laz_backend
@@ -102,7 +105,14 @@ def test_laz_is_decompressed_on_one_thread_inside_a_dask_worker():
     assert laz_backend() is None  # laspy's default, parallel
     with TileRunner(2) as runner:
         got = list(runner.map(lambda _: laz_backend(), [0, 1], ordered=True))
+        # and glibc's malloc as in one process: the nanny's MALLOC_TRIM_THRESHOLD_ fixed the
+        # mmap threshold (every array of a task a fresh mapping: 5x the page faults, tasks a
+        # third slower); no profiler sampling the task every 10 ms
+        env = list(runner.map(lambda _: (os.environ.get("MALLOC_TRIM_THRESHOLD_"),
+                                         dask.config.get("distributed.worker.profile.enabled")),
+                              [0, 1], ordered=True))
     assert got == [laspy.LazBackend.Lazrs] * 2
+    assert env == [(None, False)] * 2
 
 
 def test_chm_mosaic_is_seamless(split_stand, tmp_path):
@@ -182,3 +192,48 @@ def test_sparse_chm_mosaic_is_seamless(tmp_path):
         x, y = a.read(1, masked=True), b.read(1, masked=True)
         assert (x.mask == y.mask).all()
         np.testing.assert_allclose(x.compressed(), y.compressed(), atol=1e-4)
+
+
+def test_neighbouring_tiles_read_a_file_once(split_stand, tmp_path, monkeypatch):
+    """Decompressed files are kept (bounded) so the tiles whose buffers reach into a file do not
+    decompress it again; what a tile gets is a copy, a changed file is read again, and a file
+    over half the budget is never kept."""
+    import shutil
+
+    from lidartrees_gis import catalog as cat_mod
+    from lidartrees_gis.catalog import ReadCache, TileSource
+
+    d, files, _ = split_stand
+    f = tmp_path / "a.laz"
+    shutil.copy(files[1], f)
+    cache = ReadCache()
+    monkeypatch.setattr(cat_mod, "READ_CACHE", cache)
+    catalog = Catalog.open([f])
+    x0, y0, x1, y1 = catalog.extent
+    west = TileSource(catalog, (x0, y0, (x0 + x1) / 2, y1))
+    east = TileSource(catalog, ((x0 + x1) / 2, y0, x1, y1))
+    whole = TileSource(catalog, catalog.extent)
+    a = west.read_all()
+    assert (cache.misses, cache.hits, len(cache.items)) == (1, 0, 1)
+    a.z[:] = -999.0  # a consumer writing into its points does not reach the cache
+    b = east.read_all()
+    c = whole.read_all()
+    assert (cache.misses, cache.hits) == (1, 2)
+    assert len(c) == catalog.count and (c.z > -999).all()
+    assert len(a) + len(b) >= len(c) > max(len(a), len(b))
+    # the same points as a fresh read
+    fresh = ReadCache()
+    monkeypatch.setattr(cat_mod, "READ_CACHE", fresh)
+    c2 = TileSource(catalog, catalog.extent).read_all()
+    assert np.array_equal(np.sort(c.z), np.sort(c2.z)) and fresh.misses == 1
+    # a changed file is read again
+    monkeypatch.setattr(cat_mod, "READ_CACHE", cache)
+    shutil.copy(files[0], f)
+    TileSource(catalog, catalog.extent).read_all()
+    assert cache.misses == 2
+    # too big for the budget: read every time, never kept
+    small = ReadCache(budget=1000)
+    monkeypatch.setattr(cat_mod, "READ_CACHE", small)
+    for _ in range(2):
+        TileSource(catalog, catalog.extent).read_all()
+    assert small.misses == 2 and not small.items and small.nbytes == 0
