@@ -134,3 +134,24 @@ def test_synthetic_stand_default_method_meets_targets(stand):
     assert a["f_score"] >= 0.95
     assert a["height_rmse"] <= 0.3
     assert a["crown_diameter_rmse"] <= 0.5
+
+
+def test_crown_polygons_outline_each_label_with_holes_and_one_piece():
+    """Outlines of a label grid, built in one vectorised call: the exact cell outlines, a hole
+    kept, a crown in two 4-connected pieces gives its larger piece, labels over n ignored."""
+    from lidartrees_gis.grid import GridSpec
+    from lidartrees_gis.metrics import crown_polygons
+
+    lab = np.zeros((12, 12), np.int32)
+    lab[1:3, 1:3] = 1
+    lab[3:6, 3:6] = 1  # touches the first piece only at a corner: larger piece wins
+    lab[6:11, 6:11] = 2
+    lab[8, 8] = 0  # a hole
+    lab[0, 10] = 5  # not one of the n = 3 crowns
+    spec = GridSpec.from_bounds(0, 0, 12, 12, 1.0)
+    p = crown_polygons(lab, spec, 3)
+    assert p[2] is None and len(p) == 3
+    t = spec.top
+    assert p[0].geom_type == "Polygon" and p[0].area == 9 and p[0].bounds == (3, t - 6, 6, t - 3)
+    assert p[1].area == 24 and len(p[1].interiors) == 1 and p[1].is_valid
+    assert p[1].bounds == (6, t - 11, 11, t - 6)
