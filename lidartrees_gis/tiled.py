@@ -364,21 +364,31 @@ def _options(kw: dict) -> dict:
             "keep_class": kw.get("keep_class")}
 
 
-def _tree_frames(r: dict, method: str, crs):
-    """Tops and crowns GeoDataFrames of one tile's trees."""
+_TREE_COLS = ("tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_cells")
+
+
+def _tree_rows(r: dict) -> dict:
+    """One tile's trees as arrays, ordered by tree_id (WKB crowns under ``wkb``)."""
+    order = np.argsort(r["tree_id"], kind="stable")
+    rows = {c: np.asarray(r[c])[order] for c in _TREE_COLS}
+    rows["wkb"] = np.asarray(list(r["wkb"]), dtype=object)[order]
+    return rows
+
+
+def _tree_frames(parts: list, method: str, crs):
+    """Tops and crowns GeoDataFrames of several tiles' :func:`_tree_rows`, built once for the
+    batch (per tile, the frames and their CRS were most of the calling process's own work)."""
     import geopandas as gpd
     import pandas as pd
     import shapely
 
-    cols = ("tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_cells")
-    order = np.argsort(r["tree_id"], kind="stable")
-    attrs = pd.DataFrame({c: np.asarray(r[c])[order] for c in cols})
+    attrs = pd.DataFrame({c: np.concatenate([p[c] for p in parts]) for c in _TREE_COLS})
     attrs["tree_id"] = attrs["tree_id"].astype("int64")
     attrs["n_cells"] = attrs["n_cells"].astype("int64")
     attrs["method"] = method
-    geoms = shapely.from_wkb(np.asarray(list(r["wkb"]), dtype=object)[order])
+    geoms = shapely.from_wkb(np.concatenate([p["wkb"] for p in parts]))
     tops = gpd.GeoDataFrame(attrs.copy(), geometry=shapely.points(attrs["x"], attrs["y"]), crs=crs)
-    crowns = gpd.GeoDataFrame(attrs.copy(), geometry=geoms, crs=crs)
+    crowns = gpd.GeoDataFrame(attrs, geometry=geoms, crs=crs)
     return tops, crowns
 
 
@@ -461,12 +471,9 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
                 # two per tile (the writes are the calling process's main work)
                 nonlocal pending, pending_rows
                 if pending:
-                    import pandas as pd
-
-                    merged = {k: pd.concat([f[i] for f in pending], ignore_index=True)
-                              for i, k in enumerate(("tops", "crowns"))}
-                    put(merged["tops"], names["tops"], "Point")
-                    put(merged["crowns"], names["crowns"], "Polygon")
+                    tops, crowns = _tree_frames(pending, p.method, crs)
+                    put(tops, names["tops"], "Point")
+                    put(crowns, names["crowns"], "Polygon")
                 pending, pending_rows = [], 0
 
             topts = {**opts, "return_chm": mosaic is not None}
@@ -474,7 +481,7 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
                                 progress=SubProgress(prog, 0.02, 0.95)):
                 k = len(r["tree_id"])
                 if k:
-                    pending.append(_tree_frames(r, p.method, crs))
+                    pending.append(_tree_rows(r))
                     pending_rows += k
                     if pending_rows >= 20_000:
                         flush()
