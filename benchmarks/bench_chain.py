@@ -4,7 +4,8 @@ lidR's Megaplot laid side by side as separate files, as the issue measured), on 
 process, pinned to one core) and on a local Dask cluster of two; wall time and peak RSS of the
 largest process.
 Also tiled = untiled on the four lasR_bcts tiles. When R with lasR/lidR is on the PATH their
-chains run in the same run (skipped otherwise: R is not installable on this machine).
+chains run in the same run (skipped otherwise: lasR and lidR are not in Debian and CRAN is
+unreachable from this machine).
 
 Usage: python benchmarks/bench_chain.py [--sizes 2,4,8,16] [--out benchmarks/results/chain.json]
 """
