@@ -3,9 +3,10 @@ polygons in a GeoPackage, with the default options, at 2, 4, 8 and 16 M points (
 lidR's Megaplot laid side by side as separate files, as the issue measured), on one worker (in
 process, pinned to one core) and on a local Dask cluster of two; wall time and peak RSS of the
 largest process.
-Also tiled = untiled on the four lasR_bcts tiles. When R with lasR/lidR is on the PATH their
-chains run in the same run (skipped otherwise: lasR and lidR are not in Debian and CRAN is
-unreachable from this machine).
+Also tiled = untiled on the four lasR_bcts tiles. When Rscript with lasR and/or lidR is on the
+PATH their chains (:data:`R_LASR`, :data:`R_LIDR`) run on the same files in the same run, one
+thread each, and the ratios are written beside ours (skipped otherwise: lasR and lidR are not in
+Debian and CRAN is unreachable from this machine, so those scripts have not run here).
 
 Usage: python benchmarks/bench_chain.py [--sizes 2,4,8,16] [--out benchmarks/results/chain.json]
 """
@@ -78,6 +79,77 @@ def run_chain(folder: Path, out: Path, workers: int) -> dict:
     return r
 
 
+#: lasR's chain as lasR's own benchmarks run it (ground TIN -> normalised heights -> CHM of the
+#: highest point per cell -> local maxima in 3 m -> region growing), on one thread, no polygons
+R_LASR = r"""
+args <- commandArgs(trailingOnly = TRUE)
+suppressMessages(library(lasR))
+f <- list.files(args[1], pattern = "[.]laz$", full.names = TRUE)
+try(set_parallel_strategy(sequential()), silent = TRUE)
+t0 <- Sys.time()
+del <- triangulate(filter = keep_ground())
+norm <- transform_with(del)
+chm <- rasterize(as.numeric(args[2]), "max")
+seed <- local_maximum(3)
+tree <- region_growing(chm, seed)
+ans <- exec(del + norm + chm + seed + tree, on = f)
+cat("SECONDS", as.numeric(difftime(Sys.time(), t0, units = "secs")), "\n")
+"""
+#: the same chain in lidR 4 (catalogue, normalised copies in a temporary folder, p2r CHM, lmf,
+#: Dalponte 2016 crowns as a raster), one thread
+R_LIDR = r"""
+args <- commandArgs(trailingOnly = TRUE)
+suppressMessages(library(lidR))
+set_lidr_threads(1)
+ctg <- readLAScatalog(args[1])
+opt_progress(ctg) <- FALSE
+t0 <- Sys.time()
+opt_output_files(ctg) <- file.path(tempdir(), "{*}_norm")
+nctg <- normalize_height(ctg, tin())
+opt_output_files(nctg) <- ""
+chm <- rasterize_canopy(nctg, as.numeric(args[2]), p2r())
+ttops <- locate_trees(chm, lmf(3))
+crowns <- dalponte2016(chm, ttops)()
+cat("SECONDS", as.numeric(difftime(Sys.time(), t0, units = "secs")), "\n")
+"""
+
+
+def r_packages() -> list:
+    """The R packages of the comparison that this machine has (``lasR``, ``lidR``)."""
+    rs = shutil.which("Rscript")
+    if not rs:
+        return []
+    have = []
+    for pkg in ("lasR", "lidR"):
+        p = subprocess.run([rs, "-e", f"quit(status = if (requireNamespace('{pkg}', quietly = TRUE)) 0 else 1)"],
+                           capture_output=True)
+        if p.returncode == 0:
+            have.append(pkg)
+    return have
+
+
+def run_r_chain(pkg: str, folder: Path, res: float = 0.5) -> dict:
+    """One lasR or lidR chain in a fresh Rscript: wall time (as R measures it) and peak RSS."""
+    import resource
+
+    script = folder.parent / f"chain_{pkg}.R"
+    script.write_text(R_LASR if pkg == "lasR" else R_LIDR)
+    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    t = time.perf_counter()
+    p = subprocess.run([shutil.which("Rscript"), str(script), str(folder), str(res)],
+                       capture_output=True, text=True)
+    wall = time.perf_counter() - t
+    after = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    secs = [ln.split()[1] for ln in p.stdout.splitlines() if ln.startswith("SECONDS")]
+    if p.returncode != 0 or not secs:
+        lines = (p.stderr or p.stdout).strip().splitlines()
+        err = [ln for ln in lines if ln.startswith("Error")] or lines[-1:]
+        return {"error": err[0] if err else f"exit {p.returncode}"}
+    # the children's peak is a running maximum: it names this run only when it rose
+    return {"seconds": round(float(secs[0]), 2), "wall_with_R_start": round(wall, 2),
+            "res": res, "peak_rss_mb": round(after / 1024, 1) if after > before else None}
+
+
 def bcts_equality(tmp: Path) -> dict:
     from lidartrees_gis.tiled import trees_tiled
 
@@ -108,7 +180,10 @@ def main():
     a = ap.parse_args()
     sizes = [float(s) for s in a.sizes.split(",") if s.strip()]
     rss_sizes = [float(s) for s in a.rss_sizes.split(",") if s.strip()]
-    res = {"reported_in_issue": REPORTED, "R": shutil.which("Rscript") or "not found: lasR/lidR skipped",
+    r_pkgs = r_packages()
+    res = {"reported_in_issue": REPORTED,
+           "R": (f"{shutil.which('Rscript')}: {', '.join(r_pkgs) or 'neither lasR nor lidR'}"
+                 if shutil.which("Rscript") else "Rscript not found: lasR/lidR skipped"),
            "chain": {}}
     if not sizes and Path(a.out).exists():
         res = json.loads(Path(a.out).read_text())
@@ -136,6 +211,11 @@ def main():
             r1, r2 = row["workers_1"], row["workers_2"]
             if "seconds" in r1 and "seconds" in r2:
                 row["two_workers_over_one"] = round(r2["seconds"] / r1["seconds"], 3)
+            for pkg in r_pkgs:  # the peers' chains on the same files, one thread
+                print(f"{m:g} M points, {pkg}", file=sys.stderr, flush=True)
+                row[pkg] = run_r_chain(pkg, folder)
+                if "seconds" in row[pkg] and "seconds" in r1:
+                    row[f"one_core_over_{pkg}"] = round(r1["seconds"] / row[pkg]["seconds"], 3)
             res["chain"][f"{m:g}M"] = row
             print(json.dumps(row), file=sys.stderr, flush=True)
             shutil.rmtree(folder)
