@@ -7,7 +7,9 @@ trees whose top lies in the tile's core are kept, with their whole crowns (grown
 buffer). Every choice that the defaults make from the data (cell size, crown scale, dominant
 height) is made once for the whole area before the tiles run, and tree ids come from the top's
 cell in the global grid, so the trees do not depend on the tiling. Memory is bounded by one
-buffered tile per worker; results are merged by the calling process as tiles finish.
+buffered tile per worker plus a bounded cache of decompressed files (so that neighbouring tiles
+do not decompress a file again, :data:`~lidartrees_gis.catalog.READ_CACHE_BYTES`); results are
+merged by the calling process as tiles finish.
 
 Tasks run in this process with ``workers=1``, on a local ``dask.distributed`` cluster with
 ``workers`` processes (default: all cores), or on an existing cluster (``scheduler`` address).
