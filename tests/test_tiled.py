@@ -237,3 +237,37 @@ def test_neighbouring_tiles_read_a_file_once(split_stand, tmp_path, monkeypatch)
     for _ in range(2):
         TileSource(catalog, catalog.extent).read_all()
     assert small.misses == 2 and not small.items and small.nbytes == 0
+
+
+def test_tiled_layers_are_complete_and_indexed(split_stand, tmp_path):
+    """Tiled runs append their trees batch by batch: the output has every tree in the layers'
+    spatial index, the layers in order and no stray file; -append with -nln adds layers the same
+    way."""
+    import sqlite3
+
+    d, _, _ = split_stand
+    out = tmp_path / "t.gpkg"
+    a = trees_tiled(d, out, tile_size=30, workers=1)
+    b = trees_tiled(d, out, tile_size=30, workers=1, append=True, nln="b_")
+    assert a["trees"] == b["trees"] > 500
+    layers = [n for n, g in pyogrio.list_layers(out)]
+    assert sorted(layers) == sorted(["tree_tops", "crowns", "summary", "b_tree_tops", "b_crowns",
+                                     "b_summary"])
+    assert [n for n in layers if "summary" not in n] == ["tree_tops", "crowns", "b_tree_tops",
+                                                         "b_crowns"]
+    con = sqlite3.connect(out)
+    try:
+        for t in ("tree_tops", "crowns", "b_tree_tops", "b_crowns"):
+            n = con.execute(f'SELECT count(*) FROM "{t}"').fetchone()[0]
+            assert n == a["trees"]
+            assert con.execute(f'SELECT count(*) FROM "rtree_{t}_geom"').fetchone()[0] == n
+            assert pyogrio.read_info(out, layer=t)["capabilities"]["fast_spatial_filter"]
+        assert con.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
+    finally:
+        con.close()
+    info = pyogrio.read_info(out, layer="crowns")
+    assert list(info["fields"]) == ["tree_id", "x", "y", "height", "crown_area", "crown_diameter",
+                                    "n_cells", "method"]
+    assert info["geometry_type"] == "Polygon" and "29194" in info["crs"]
+    assert json.loads(info["layer_metadata"]["tiles"]) > 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.gpkg"]
