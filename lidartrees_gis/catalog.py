@@ -354,15 +354,18 @@ class TileSource:
             except OSError:  # gone: open_points says so
                 key = None
             hit = None if key is None else cache.get(key)
+            kept, kept_bytes = None, 0  # what a first read keeps for the cache
             if hit is not None:
                 chunks, dropped = hit
             else:
                 src = open_points(f, chunk_size=self.chunk_size, **kw)
                 src.set_class_filter(self.drop_classes, None if self.keep_classes is None
                                      else sorted(self.keep_classes))
-                chunks, kept, kept_bytes = src.chunks(), ([] if key is not None else None), 0
+                chunks = src.chunks()
+                if key is not None:
+                    kept = []
             for c in chunks:
-                if hit is None and kept is not None:
+                if kept is not None:
                     # own arrays: a view would keep the reader's whole point record buffer
                     kept.append(c.subset(np.ones(len(c), bool)))
                     kept_bytes += _chunk_nbytes(kept[-1])

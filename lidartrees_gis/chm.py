@@ -81,30 +81,43 @@ def _morton_order(x, y, cell: float = 1.0):
     return np.argsort(spread(ix) | (spread(iy) << np.uint64(1)), kind="stable")
 
 
+def _startinpy():
+    """The startinpy module, or None where it is not installed."""
+    try:
+        import startinpy
+    except ImportError:  # pragma: no cover - depends on the environment
+        return None
+    return startinpy
+
+
+def _highest_dt(startinpy):
+    """An empty startinpy DT in which coincident points keep the highest z. The caller must
+    ``del`` it in a ``finally``: a DT must be dropped by the thread that made it (pyo3
+    "unsendable"), not later by a garbage collection elsewhere through a traceback that still
+    holds the frame."""
+    dt = startinpy.DT()
+    dt.duplicates_handling = "Highest"
+    return dt
+
+
 def triangulate(x, y, z):
     """2-D Delaunay triangulation: ``(px, py, pz, triangles)``.
 
     With startinpy (Rust, MIT licence; about 10x faster than Qhull here) coincident points keep
     the highest z; otherwise scipy's Qhull. Coordinates should be local (small numbers).
     """
-    try:
-        import startinpy
-    except ImportError:  # pragma: no cover - depends on the environment
-        startinpy = None
+    startinpy = _startinpy()
     if startinpy is not None:
         # insert along a Morton (z-order) curve of 1 m cells: incremental insertion walks from
         # the last point, and points in random order (some XYZ files) made it 70x slower
         order = _morton_order(x, y)
-        dt = startinpy.DT()
+        dt = _highest_dt(startinpy)
         try:
-            dt.duplicates_handling = "Highest"
             dt.insert(np.column_stack([x[order], y[order], z[order]]))
             p = np.asarray(dt.points)
             tri = np.asarray(dt.triangles, dtype=np.int64)
         finally:
-            # a DT must be dropped by the thread that made it (pyo3 "unsendable"): not later by
-            # a garbage collection elsewhere through a traceback that still holds this frame
-            del dt
+            del dt  # see _highest_dt
         return p[:, 0], p[:, 1], p[:, 2], tri  # vertex 0 is startin's infinite vertex, unused
     from scipy.spatial import Delaunay
 
@@ -259,14 +272,6 @@ def pitfree_chm(x, y, zn, spec: GridSpec, *, thresholds=PITFREE_THRESHOLDS, max_
     return out
 
 
-def _startinpy():
-    try:
-        import startinpy
-    except ImportError:  # pragma: no cover - depends on the environment
-        return None
-    return startinpy
-
-
 def _pitfree_incremental(x, y, zn, spec: GridSpec, ts, max_edge, out) -> np.ndarray:
     """The layers of :func:`pitfree_chm` from one triangulation, built from the top layer down.
 
@@ -279,9 +284,8 @@ def _pitfree_incremental(x, y, zn, spec: GridSpec, ts, max_edge, out) -> np.ndar
     """
     from . import _accel
 
-    startinpy = _startinpy()
-    counts = [int(np.count_nonzero(zn >= t)) for t in ts]
-    layers = [i for i in range(len(ts)) if counts[i] >= 3 and all(c >= 3 for c in counts[:i])]
+    # the layers with at least 3 points (ts ascending: the counts only fall)
+    layers = [i for i, t in enumerate(ts) if np.count_nonzero(zn >= t) >= 3]
     if not layers:
         return out
     x0, y0 = float(x.min()), float(y.min())
@@ -289,9 +293,8 @@ def _pitfree_incremental(x, y, zn, spec: GridSpec, ts, max_edge, out) -> np.ndar
     lx, ly = x - x0 + jx, y - y0 + jy
     order = _morton_order(lx, ly)
     zo = zn[order]
-    dt = startinpy.DT()
+    dt = _highest_dt(_startinpy())
     try:
-        dt.duplicates_handling = "Highest"
         upper = np.inf
         for i in reversed(layers):
             band = order[(zo >= ts[i]) & (zo < upper)]  # still along the Morton curve
@@ -308,7 +311,7 @@ def _pitfree_incremental(x, y, zn, spec: GridSpec, ts, max_edge, out) -> np.ndar
     except (ValueError, RuntimeError):  # a triangulation that cannot be built draws nothing
         return out
     finally:
-        del dt  # dropped by the thread that made it (see triangulate)
+        del dt  # see _highest_dt
     return out
 
 
