@@ -98,69 +98,75 @@ def lowest(idx, x, y, z, cz, cx, cy, count) -> None:
     _lowest_nb(idx, x, y, z, cz, cx, cy, count)
 
 
+def _draw_triangle_py(ax, ay, az, bx, by, bz, cx, cy, cz, max_edge, max_radius, left, top, res,
+                      height, width, out):
+    """Linear interpolation of one triangle at the cell centres it covers, kept where higher
+    than ``out`` (NaN in ``out`` counts as lowest). Skipped (returns 0) when an edge is longer
+    than ``max_edge`` (> 0) or the circumradius larger than ``max_radius`` (> 0)."""
+    if max_edge > 0.0:
+        me2 = max_edge * max_edge
+        if ((ax - bx) ** 2 + (ay - by) ** 2 > me2 or (bx - cx) ** 2 + (by - cy) ** 2 > me2
+                or (cx - ax) ** 2 + (cy - ay) ** 2 > me2):
+            return 0
+    det = (by - cy) * (ax - cx) + (cx - bx) * (ay - cy)
+    if det == 0.0 or not (abs(det) < np.inf):  # degenerate, or a coordinate not a number
+        return 0
+    if max_radius > 0.0:
+        # circumradius R = |ab| |bc| |ca| / (2 |det|): kept when R <= max_radius
+        e2 = (((ax - bx) ** 2 + (ay - by) ** 2) * ((bx - cx) ** 2 + (by - cy) ** 2)
+              * ((cx - ax) ** 2 + (cy - ay) ** 2))
+        if not (e2 <= 4.0 * max_radius * max_radius * det * det):
+            return 0
+    xmin = min(ax, bx, cx)
+    xmax = max(ax, bx, cx)
+    ymin = min(ay, by, cy)
+    ymax = max(ay, by, cy)
+    # columns whose centre x = left + (j + 0.5) res lies in [xmin, xmax]; clamped as floats
+    # first, so NaN, inf or 1e300 coordinates never become an index outside ``out``
+    fj0 = np.ceil((xmin - left) / res - 0.5)
+    fj1 = np.floor((xmax - left) / res - 0.5)
+    fi0 = np.ceil((top - ymax) / res - 0.5)
+    fi1 = np.floor((top - ymin) / res - 0.5)
+    if not (fj0 <= fj1 and fi0 <= fi1 and fj1 >= 0.0 and fi1 >= 0.0
+            and fj0 <= width - 1.0 and fi0 <= height - 1.0):
+        return 0  # no cell centre inside, or not a number
+    j0 = int(max(fj0, 0.0))
+    i0 = int(max(fi0, 0.0))
+    j1 = int(min(fj1, width - 1.0))
+    i1 = int(min(fi1, height - 1.0))
+    eps = -1e-9 * abs(det)
+    for i in range(i0, i1 + 1):
+        yc = top - (i + 0.5) * res
+        for j in range(j0, j1 + 1):
+            xc = left + (j + 0.5) * res
+            l1 = (by - cy) * (xc - cx) + (cx - bx) * (yc - cy)
+            l2 = (cy - ay) * (xc - cx) + (ax - cx) * (yc - cy)
+            if det < 0:
+                l1, l2, d = -l1, -l2, -det
+            else:
+                d = det
+            l3 = d - l1 - l2
+            if l1 < eps or l2 < eps or l3 < eps:
+                continue
+            v = (l1 * az + l2 * bz + l3 * cz) / d
+            cur = out[i, j]
+            if v == v and not (cur >= v):  # also when cur is NaN; never write a NaN
+                out[i, j] = v
+    return 1
+
+
+_draw_triangle = _jit(_draw_triangle_py) or _draw_triangle_py
+
+
 def _raster_triangles_py(px, py, pz, tri, max_edge, left, top, res, height, width, out,
                          max_radius=0.0):
-    """Linear interpolation of each triangle at the cell centres it covers, kept where higher
-    than ``out`` (NaN in ``out`` counts as lowest). Triangles with an edge longer than
-    ``max_edge`` (> 0) or a circumradius larger than ``max_radius`` (> 0) are skipped. Returns
-    the number of triangles drawn."""
+    """:func:`_draw_triangle_py` for each triangle ``tri[t]`` (indices into ``px, py, pz``).
+    Returns the number of triangles drawn."""
     drawn = 0
-    me2 = max_edge * max_edge
-    four_r2 = 4.0 * max_radius * max_radius
     for t in range(tri.shape[0]):
         a, b, c = tri[t, 0], tri[t, 1], tri[t, 2]
-        ax, ay, az = px[a], py[a], pz[a]
-        bx, by, bz = px[b], py[b], pz[b]
-        cx, cy, cz = px[c], py[c], pz[c]
-        if max_edge > 0.0:
-            if ((ax - bx) ** 2 + (ay - by) ** 2 > me2 or (bx - cx) ** 2 + (by - cy) ** 2 > me2
-                    or (cx - ax) ** 2 + (cy - ay) ** 2 > me2):
-                continue
-        det = (by - cy) * (ax - cx) + (cx - bx) * (ay - cy)
-        if det == 0.0 or not (abs(det) < np.inf):  # degenerate, or a coordinate not a number
-            continue
-        if max_radius > 0.0:
-            # circumradius R = |ab| |bc| |ca| / (2 |det|): kept when R <= max_radius
-            e2 = (((ax - bx) ** 2 + (ay - by) ** 2) * ((bx - cx) ** 2 + (by - cy) ** 2)
-                  * ((cx - ax) ** 2 + (cy - ay) ** 2))
-            if not (e2 <= four_r2 * det * det):
-                continue
-        xmin = min(ax, bx, cx)
-        xmax = max(ax, bx, cx)
-        ymin = min(ay, by, cy)
-        ymax = max(ay, by, cy)
-        # columns whose centre x = left + (j + 0.5) res lies in [xmin, xmax]; clamped as floats
-        # first, so NaN, inf or 1e300 coordinates never become an index outside ``out``
-        fj0 = np.ceil((xmin - left) / res - 0.5)
-        fj1 = np.floor((xmax - left) / res - 0.5)
-        fi0 = np.ceil((top - ymax) / res - 0.5)
-        fi1 = np.floor((top - ymin) / res - 0.5)
-        if not (fj0 <= fj1 and fi0 <= fi1 and fj1 >= 0.0 and fi1 >= 0.0
-                and fj0 <= width - 1.0 and fi0 <= height - 1.0):
-            continue  # no cell centre inside, or not a number
-        j0 = int(max(fj0, 0.0))
-        i0 = int(max(fi0, 0.0))
-        j1 = int(min(fj1, width - 1.0))
-        i1 = int(min(fi1, height - 1.0))
-        drawn += 1
-        eps = -1e-9 * abs(det)
-        for i in range(i0, i1 + 1):
-            yc = top - (i + 0.5) * res
-            for j in range(j0, j1 + 1):
-                xc = left + (j + 0.5) * res
-                l1 = (by - cy) * (xc - cx) + (cx - bx) * (yc - cy)
-                l2 = (cy - ay) * (xc - cx) + (ax - cx) * (yc - cy)
-                if det < 0:
-                    l1, l2, d = -l1, -l2, -det
-                else:
-                    d = det
-                l3 = d - l1 - l2
-                if l1 < eps or l2 < eps or l3 < eps:
-                    continue
-                v = (l1 * az + l2 * bz + l3 * cz) / d
-                cur = out[i, j]
-                if v == v and not (cur >= v):  # also when cur is NaN; never write a NaN
-                    out[i, j] = v
+        drawn += _draw_triangle(px[a], py[a], pz[a], px[b], py[b], pz[b], px[c], py[c], pz[c],
+                                max_edge, max_radius, left, top, res, height, width, out)
     return drawn
 
 
@@ -176,3 +182,214 @@ def raster_triangles(px, py, pz, tri, max_edge, left, top, res, height, width, o
         raise ValueError(f"raster_triangles: out is {out.shape}, expected {(height, width)}")
     return _raster_triangles_nb(px, py, pz, tri, float(max_edge), float(left), float(top),
                                 float(res), int(height), int(width), out, float(max_radius))
+
+
+def _layered_tin_py(px, py, pz, band_end, band_edge, max_radius, left, top, res, height,
+                    width, out):
+    """Incremental Delaunay triangulation (Bowyer-Watson, walking point location) of points
+    given band by band, each band's layer drawn into ``out`` as soon as it is in.
+
+    ``px, py, pz`` are the points in insertion order (local coordinates, in general position:
+    see ``chm.tiebreak``), band ``k`` being ``[band_end[k-1], band_end[k])``. After band ``k``
+    the triangles of the points inserted so far are drawn with :func:`_draw_triangle_py`, edge
+    limit ``band_edge[k]`` and circumradius limit ``max_radius`` (> 0); a triangle already drawn
+    for an earlier band with the same edge limit is not drawn again (the surface keeps the
+    highest value, so drawing it again changes nothing). Coincident points keep the highest z.
+
+    Starts from a super-triangle ~1e4 extents away: a triangle of the points can only differ
+    from their Delaunay triangulation if its circumcircle reaches a super vertex, far beyond
+    ``max_radius``. Returns the number of points inserted, or -1 (point location did not end),
+    -2 (a cavity that is not star-shaped: the floating-point predicates failed); the caller then
+    uses another triangulator.
+    """
+    n = px.shape[0]
+    X = np.empty(n + 3)
+    Y = np.empty(n + 3)
+    Z = np.empty(n + 3)
+    xmin = ymin = np.inf
+    xmax = ymax = -np.inf
+    for i in range(n):
+        X[i] = px[i]
+        Y[i] = py[i]
+        Z[i] = pz[i]
+        xmin = min(xmin, px[i])
+        xmax = max(xmax, px[i])
+        ymin = min(ymin, py[i])
+        ymax = max(ymax, py[i])
+    if n == 0:
+        return 0
+    ext = max(xmax - xmin, ymax - ymin, 1.0) * 1e4
+    mx = 0.5 * (xmin + xmax)
+    my = 0.5 * (ymin + ymax)
+    X[n], Y[n] = mx - 2.0 * ext, my - ext
+    X[n + 1], Y[n + 1] = mx + 2.0 * ext, my - ext
+    X[n + 2], Y[n + 2] = mx, my + 2.0 * ext
+    Z[n] = Z[n + 1] = Z[n + 2] = 0.0
+    cap = 2 * n + 8
+    tv = np.empty((cap, 3), np.int64)
+    tn = np.full((cap, 3), -1, np.int64)
+    born = np.full(cap, -1, np.int64)  # band that made the triangle; -1 = free slot
+    stamp = np.zeros(cap, np.int64)
+    free = np.empty(cap, np.int64)
+    nfree = 0
+    used = 1
+    tv[0, 0], tv[0, 1], tv[0, 2] = n, n + 1, n + 2
+    born[0] = 0
+    zmod = np.full(n + 3, -1, np.int64)  # band in which a coincident point raised the z
+    start_of = np.empty(n + 3, np.int64)
+    end_of = np.empty(n + 3, np.int64)
+    cav = np.empty(cap, np.int64)
+    ea = np.empty(cap, np.int64)
+    eb = np.empty(cap, np.int64)
+    enb = np.empty(cap, np.int64)
+    eold = np.empty(cap, np.int64)  # side of the outside triangle
+    newt = np.empty(cap, np.int64)
+    last = 0
+    inserted = 0
+    v = 0
+    prev_edge = -1.0
+    for k in range(band_end.shape[0]):
+        while v < band_end[k]:
+            qx, qy = X[v], Y[v]
+            # walk to the triangle holding the point (rotating the first edge tried)
+            t = last
+            steps = 0
+            while True:
+                moved = False
+                for j in range(3):
+                    e = (j + steps) % 3
+                    a = tv[t, (e + 1) % 3]
+                    b = tv[t, (e + 2) % 3]
+                    if (X[a] - qx) * (Y[b] - qy) - (Y[a] - qy) * (X[b] - qx) < 0.0:
+                        t = tn[t, e]
+                        moved = True
+                        break
+                if not moved:
+                    break
+                steps += 1
+                if t < 0 or steps > 4 * n + 1000:
+                    return -1
+            dup = -1
+            for j in range(3):
+                u = tv[t, j]
+                if X[u] == qx and Y[u] == qy:
+                    dup = u
+            if dup >= 0:
+                if Z[v] > Z[dup] and dup < n:
+                    Z[dup] = Z[v]
+                    zmod[dup] = k
+                v += 1
+                continue
+            # cavity: triangles whose circumcircle holds the point
+            stamp_id = v + 1
+            stamp[t] = stamp_id
+            cav[0] = t
+            ncav = 1
+            h = 0
+            while h < ncav:
+                c = cav[h]
+                h += 1
+                for j in range(3):
+                    nb = tn[c, j]
+                    if nb < 0 or stamp[nb] == stamp_id:
+                        continue
+                    a, b, d = tv[nb, 0], tv[nb, 1], tv[nb, 2]
+                    adx, ady = X[a] - qx, Y[a] - qy
+                    bdx, bdy = X[b] - qx, Y[b] - qy
+                    cdx, cdy = X[d] - qx, Y[d] - qy
+                    al = adx * adx + ady * ady
+                    bl = bdx * bdx + bdy * bdy
+                    cl = cdx * cdx + cdy * cdy
+                    det = (adx * (bdy * cl - cdy * bl) - ady * (bdx * cl - cdx * bl)
+                           + al * (bdx * cdy - bdy * cdx))
+                    if det > 0.0:
+                        stamp[nb] = stamp_id
+                        cav[ncav] = nb
+                        ncav += 1
+            # its boundary edges, each seen from inside the cavity (counter-clockwise)
+            ne = 0
+            for h in range(ncav):
+                c = cav[h]
+                for j in range(3):
+                    nb = tn[c, j]
+                    if nb >= 0 and stamp[nb] == stamp_id:
+                        continue
+                    a = tv[c, (j + 1) % 3]
+                    b = tv[c, (j + 2) % 3]
+                    if (X[a] - qx) * (Y[b] - qy) - (Y[a] - qy) * (X[b] - qx) <= 0.0:
+                        return -2
+                    ea[ne] = a
+                    eb[ne] = b
+                    enb[ne] = nb
+                    eold[ne] = 0
+                    if nb >= 0:  # which of the outside triangle's sides is this edge
+                        for i in range(3):
+                            if tn[nb, i] == c:
+                                eold[ne] = i
+                    ne += 1
+            for h in range(ncav):
+                born[cav[h]] = -1
+                free[nfree] = cav[h]
+                nfree += 1
+            for h in range(ne):
+                if nfree > 0:
+                    nfree -= 1
+                    nt = free[nfree]
+                else:
+                    nt = used
+                    used += 1
+                a, b, nb = ea[h], eb[h], enb[h]
+                tv[nt, 0], tv[nt, 1], tv[nt, 2] = a, b, v
+                tn[nt, 2] = nb
+                born[nt] = k
+                stamp[nt] = 0
+                if nb >= 0:
+                    tn[nb, eold[h]] = nt
+                start_of[a] = nt
+                end_of[b] = nt
+                newt[h] = nt
+            for h in range(ne):
+                nt = newt[h]
+                tn[nt, 0] = start_of[tv[nt, 1]]  # across (b, v): the triangle starting at b
+                tn[nt, 1] = end_of[tv[nt, 0]]    # across (v, a): the triangle ending at a
+            last = newt[0]
+            inserted += 1
+            v += 1
+        # draw this layer: the new triangles, or all of them when the edge limit changed
+        edge = band_edge[k]
+        redraw = edge != prev_edge
+        prev_edge = edge
+        for t in range(used):
+            if born[t] < 0:
+                continue
+            a, b, c = tv[t, 0], tv[t, 1], tv[t, 2]
+            if a >= n or b >= n or c >= n:
+                continue
+            if not (redraw or born[t] == k or zmod[a] == k or zmod[b] == k or zmod[c] == k):
+                continue
+            _draw_triangle(X[a], Y[a], Z[a], X[b], Y[b], Z[b], X[c], Y[c], Z[c], edge,
+                           max_radius, left, top, res, height, width, out)
+    return inserted
+
+
+_layered_tin_nb = _jit(_layered_tin_py)
+
+
+def layered_tin(px, py, pz, band_end, band_edge, max_radius, left, top, res, height, width,
+                out) -> int:
+    """Compiled :func:`_layered_tin_py` (numba only; callers use another triangulator when it
+    is missing or returns a negative code)."""
+    band_end = np.asarray(band_end, np.int64)
+    band_edge = np.asarray(band_edge, np.float64)
+    if band_end.shape != band_edge.shape or (band_end.size and (
+            np.any(np.diff(band_end) < 0) or band_end[-1] != px.shape[0])):
+        raise ValueError("layered_tin: bands do not cover the points")
+    if not max_radius > 0:
+        raise ValueError("layered_tin: needs a circumradius limit > 0")
+    if out.shape != (height, width):
+        raise ValueError(f"layered_tin: out is {out.shape}, expected {(height, width)}")
+    return _layered_tin_nb(np.ascontiguousarray(px, np.float64),
+                           np.ascontiguousarray(py, np.float64),
+                           np.ascontiguousarray(pz, np.float64), band_end, band_edge,
+                           float(max_radius), float(left), float(top), float(res), int(height),
+                           int(width), out)

@@ -173,8 +173,15 @@ def tin_surface(x, y, z, spec: GridSpec, *, max_edge: float = 0.0, cells=None,
     x0, y0 = float(x.min()), float(y.min())
     if _accel.HAVE_NUMBA:
         jx, jy = tiebreak(x, y)
+        lx, ly = x - x0 + jx, y - y0 + jy
+        if max_radius and max_radius > 0:  # compiled triangulation; drawn once it is built
+            order = _morton_order(lx, ly)
+            if _accel.layered_tin(lx[order], ly[order], z[order], [x.size], [float(max_edge)],
+                                  float(max_radius), spec.left - x0, spec.top - y0, spec.res,
+                                  spec.height, spec.width, out) >= 0:
+                return out
         try:
-            px, py, pz, simp = triangulate(x - x0 + jx, y - y0 + jy, z)
+            px, py, pz, simp = triangulate(lx, ly, z)
         except (QhullError, ValueError, RuntimeError):
             return out
         if len(simp):
@@ -244,8 +251,10 @@ def pitfree_chm(x, y, zn, spec: GridSpec, *, thresholds=PITFREE_THRESHOLDS, max_
 
     ts = sorted(float(t) for t in thresholds)
     out = np.full(spec.shape, np.nan)
-    if _accel.HAVE_NUMBA and _startinpy() is not None:
-        return _pitfree_incremental(x, y, zn, spec, ts, max_edge, out)
+    if _accel.HAVE_NUMBA:
+        done = _pitfree_incremental(x, y, zn, spec, ts, max_edge, out)
+        if done is not None:
+            return done
     reach = None
     for i, t in enumerate(ts):
         sel = zn >= t
@@ -272,7 +281,7 @@ def pitfree_chm(x, y, zn, spec: GridSpec, *, thresholds=PITFREE_THRESHOLDS, max_
     return out
 
 
-def _pitfree_incremental(x, y, zn, spec: GridSpec, ts, max_edge, out) -> np.ndarray:
+def _pitfree_incremental(x, y, zn, spec: GridSpec, ts, max_edge, out):
     """The layers of :func:`pitfree_chm` from one triangulation, built from the top layer down.
 
     Layer ``t``'s points are those of the layer above plus the points in ``[t, t_above)``, and a
@@ -281,6 +290,11 @@ def _pitfree_incremental(x, y, zn, spec: GridSpec, ts, max_edge, out) -> np.ndar
     the triangulation of the layers above gives every layer's triangulation with each point
     inserted once instead of once per layer (3-5x fewer insertions in a forest). Each layer's
     triangles are drawn as soon as its band is in.
+
+    The compiled :func:`_accel.layered_tin` draws only the triangles a band made (the others
+    were drawn with the layer above); where its floating-point predicates fail, startinpy
+    builds the same triangulation. Returns None when neither can (the caller then triangulates
+    every layer on its own).
     """
     from . import _accel
 
@@ -293,21 +307,33 @@ def _pitfree_incremental(x, y, zn, spec: GridSpec, ts, max_edge, out) -> np.ndar
     lx, ly = x - x0 + jx, y - y0 + jy
     order = _morton_order(lx, ly)
     zo = zn[order]
-    dt = _highest_dt(_startinpy())
+    bands, edges = [], []
+    upper = np.inf
+    for i in reversed(layers):
+        bands.append(order[(zo >= ts[i]) & (zo < upper)])  # still along the Morton curve
+        edges.append(float(max_edge[0] if i == 0 else max_edge[1]))
+        upper = ts[i]
+    grid = (spec.left - x0, spec.top - y0, spec.res, spec.height, spec.width)
+    if _accel.HAVE_NUMBA:
+        idx = np.concatenate(bands)
+        ends = np.cumsum([b.size for b in bands])
+        if _accel.layered_tin(lx[idx], ly[idx], zn[idx], ends, edges, LOCAL_RADIUS, *grid,
+                              out) >= 0:
+            return out
+        out[:] = np.nan
+    startinpy = _startinpy()
+    if startinpy is None:
+        return None
+    dt = _highest_dt(startinpy)
     try:
-        upper = np.inf
-        for i in reversed(layers):
-            band = order[(zo >= ts[i]) & (zo < upper)]  # still along the Morton curve
-            upper = ts[i]
+        for band, edge in zip(bands, edges):
             if band.size:
                 dt.insert(np.column_stack([lx[band], ly[band], zn[band]]))
             p = np.asarray(dt.points)
             tri = np.asarray(dt.triangles, dtype=np.int64)
             if len(tri):
-                edge = max_edge[0] if i == 0 else max_edge[1]
-                _accel.raster_triangles(p[:, 0], p[:, 1], p[:, 2], tri, float(edge),
-                                        spec.left - x0, spec.top - y0, spec.res, spec.height,
-                                        spec.width, out, max_radius=LOCAL_RADIUS)
+                _accel.raster_triangles(p[:, 0], p[:, 1], p[:, 2], tri, edge, *grid, out,
+                                        max_radius=LOCAL_RADIUS)
     except (ValueError, RuntimeError):  # a triangulation that cannot be built draws nothing
         return out
     finally:

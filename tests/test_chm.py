@@ -157,6 +157,59 @@ def test_nanpercentile_last_is_numpys_nanpercentile():
         np.testing.assert_array_equal(nanpercentile_last(a, q), ref)
 
 
+def _spy_layered_tin(monkeypatch):
+    """Record what each call of the compiled triangulation returns."""
+    calls = []
+    real = _accel.layered_tin
+
+    def spy(*args, **kw):
+        calls.append(real(*args, **kw))
+        return calls[-1]
+
+    monkeypatch.setattr(_accel, "layered_tin", spy)
+    return calls
+
+
+@pytest.mark.skipif(not _accel.HAVE_NUMBA, reason="numba not installed")
+def test_compiled_triangulation_on_a_lattice_with_rows_and_coincident_points(monkeypatch):
+    """Points on an exact 0.5 m lattice (every four neighbours cocircular, long collinear
+    rows), some repeated with another height: the compiled Bowyer-Watson triangulation must
+    give the surface startinpy's (coincident points keep the highest) and Qhull's give."""
+    from lidartrees_gis import chm as chm_mod
+
+    rng = np.random.default_rng(21)
+    gx, gy = np.meshgrid(np.arange(0, 30, 0.5), np.arange(0, 20, 0.5))
+    x, y = gx.ravel() + 600_000.0, gy.ravel() + 7_400_000.0
+    z = np.round(rng.uniform(0, 25, x.size), 2)
+    rep = rng.choice(x.size, 300, replace=False)
+    x = np.concatenate([x, x[rep]])
+    y = np.concatenate([y, y[rep]])
+    z = np.concatenate([z, z[rep] + np.where(rng.random(300) < 0.5, 3.0, -3.0)])
+    shuffle = rng.permutation(x.size)
+    x, y, z = x[shuffle], y[shuffle], z[shuffle]
+    spec = GridSpec.from_bounds(600_000 - 1, 7_400_000 - 1, 600_031, 7_400_021, 0.2)
+    inserted = _spy_layered_tin(monkeypatch)
+    ours = tin_surface(x, y, z, spec, max_radius=chm_mod.LOCAL_RADIUS)
+    assert inserted == [x.size - 300]  # each coincident pair became one vertex
+    monkeypatch.setattr(_accel, "layered_tin", lambda *a, **k: -2)
+    startin = tin_surface(x, y, z, spec, max_radius=chm_mod.LOCAL_RADIUS)
+    assert np.array_equal(np.isnan(ours), np.isnan(startin))
+    np.testing.assert_allclose(ours, startin, atol=1e-9)
+    # the highest of two coincident points is used: equal to Qhull on the deduplicated points
+    key = np.round(x * 100).astype(np.int64) * 10**10 + np.round(y * 100).astype(np.int64)
+    order = np.lexsort((-z, key))
+    first = np.r_[True, key[order][1:] != key[order][:-1]]
+    u = order[first]
+    monkeypatch.setattr(chm_mod, "_startinpy", lambda: None)
+    qhull = tin_surface(x[u], y[u], z[u], spec, max_radius=chm_mod.LOCAL_RADIUS)
+    np.testing.assert_allclose(ours, qhull, atol=1e-9)
+    rows, cols = np.mgrid[0:spec.height, 0:spec.width]
+    cx, cy = spec.xy(rows, cols)
+    dx, dy = np.minimum(cx - 600_000, 600_029.5 - cx), np.minimum(cy - 7_400_000, 7_400_019.5 - cy)
+    inside, outside = (dx > 0.01) & (dy > 0.01), (dx < -0.01) | (dy < -0.01)
+    assert np.isfinite(ours[inside]).all() and np.isnan(ours[outside]).all()
+
+
 @pytest.mark.skipif(not _accel.HAVE_NUMBA, reason="numba not installed")
 def test_pitfree_from_one_triangulation_equals_one_triangulation_per_layer(monkeypatch):
     """The layers are built from the top down in one triangulation (each point inserted once);
@@ -173,11 +226,18 @@ def test_pitfree_from_one_triangulation_equals_one_triangulation_per_layer(monke
     x, y, z = (np.concatenate(p) for p in zip(*parts))
     x, y = x + 500_000, y + 7_000_000
     spec = GridSpec.from_bounds(500_000 - 1, 7_000_000 - 1, 500_015, 7_000_015, 0.25)
+    inserted = _spy_layered_tin(monkeypatch)
     one = pitfree_chm(x, y, z, spec, max_edge=(0.0, 0.6))
+    assert inserted == [x.size]  # the compiled triangulation ran, every point inserted once
+    # startinpy's triangulation (the fallback when the compiled predicates fail) ...
+    monkeypatch.setattr(_accel, "layered_tin", lambda *a, **k: -2)
+    fallback = pitfree_chm(x, y, z, spec, max_edge=(0.0, 0.6))
+    # ... and Qhull, one triangulation per layer
     monkeypatch.setattr(chm_mod, "_startinpy", lambda: None)
     per_layer = pitfree_chm(x, y, z, spec, max_edge=(0.0, 0.6))
-    assert np.array_equal(np.isnan(one), np.isnan(per_layer))
-    np.testing.assert_allclose(one, per_layer, atol=1e-9)
+    for other in (fallback, per_layer):
+        assert np.array_equal(np.isnan(one), np.isnan(other))
+        np.testing.assert_allclose(one, other, atol=1e-9)
     # and the upper layers did fill something the first (all points) layer alone leaves low
     first = tin_surface(x, y, z, spec, max_radius=chm_mod.LOCAL_RADIUS)
     assert (one > first + 1.0).sum() > 20
