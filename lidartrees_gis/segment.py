@@ -37,63 +37,96 @@ def _prepare(chm, rows, cols):
 
 # ---------------------------------------------------------------------------------------------
 # Seed 000, Annex 2: region growing after Hyyppä et al. (2001)
+def _rg_level(v, step):
+    """The lowest pass that can label a cell of height ``v``: the largest integer ``lev`` with
+    ``lev * step < v`` (computed as the passes compute their thresholds)."""
+    lev = int(np.ceil(v / step)) - 1
+    while lev * step >= v:
+        lev -= 1
+    while (lev + 1) * step < v:
+        lev += 1
+    return lev
+
+
+_rg_level_c = _jit(_rg_level) if HAVE_NUMBA else _rg_level
+
+
 def _rg_kernel(chm, seeds_r, seeds_c, hmax, hmin, step, labels):
+    """Annex 2's passes over a FIFO queue, visiting in each pass only the queued cells that can
+    act in it. A queued cell acts in a pass when an unlabelled 4-neighbour is higher than the
+    pass's threshold; after its visit its unlabelled neighbours are all at or below it, so it
+    waits in the bucket of the pass that first goes below the highest of them (a neighbour
+    labelled meanwhile only makes that visit idle). The cells of a pass are visited in queue
+    order and the cells labelled in it join the end of the queue, as in Annex 2, so the labels
+    are those of visiting every queued cell in every pass."""
     H, W = chm.shape
     n = seeds_r.shape[0]
     cap = H * W + n + 1
     qr = np.empty(cap, np.int64)
     qc = np.empty(cap, np.int64)
-    alive = np.ones(cap, np.bool_)
-    tail = 0
-    for i in range(n):
-        labels[seeds_r[i], seeds_c[i]] = i + 1
-        qr[tail] = seeds_r[i]
-        qc[tail] = seeds_c[i]
-        tail += 1
+    nxt = np.empty(cap, np.int64)  # the waiting cells of a pass, as linked lists
+    buf = np.empty(cap, np.int64)
     dr = np.array([-1, 1, 0, 0])
     dc = np.array([0, 0, -1, 1])
-    lev = int(np.floor(hmax / step))
-    if lev * step >= hmax:
-        lev -= 1
-    thr = lev * step
-    while thr > hmin:
-        if tail == 0:
-            break
-        pos = 0
-        while pos < tail:  # one pass; cells appended during the pass are visited in it too
-            if alive[pos]:
-                r = qr[pos]
-                c = qc[pos]
-                lab = labels[r, c]
-                open_nb = False
-                for k in range(4):
-                    rr = r + dr[k]
-                    cc = c + dc[k]
-                    if rr < 0 or rr >= H or cc < 0 or cc >= W or labels[rr, cc] != 0:
-                        continue
-                    v = chm[rr, cc]
-                    if v > thr:
-                        labels[rr, cc] = lab
-                        qr[tail] = rr
-                        qc[tail] = cc
-                        alive[tail] = True
-                        tail += 1
-                    elif v > hmin:  # can still be labelled at a lower threshold
-                        open_nb = True
-                if not open_nb:
-                    alive[pos] = False  # Excluir(): no neighbour left to label
-            pos += 1
-        # compact the queue, keeping its order
-        j = 0
-        for i in range(tail):
-            if alive[i]:
-                qr[j] = qr[i]
-                qc[j] = qc[i]
-                alive[j] = True
-                j += 1
-        tail = j
-        lev -= 1
+    top = int(np.floor(hmax / step))
+    if top * step >= hmax:
+        top -= 1
+    low = top  # the last pass: the lowest threshold above hmin
+    while (low - 1) * step > hmin:
+        low -= 1
+    for i in range(n):  # every seed is visited in the first pass (any order: sorted there)
+        labels[seeds_r[i], seeds_c[i]] = i + 1
+        qr[i] = seeds_r[i]
+        qc[i] = seeds_c[i]
+        nxt[i] = i - 1
+    tail = n
+    if top * step <= hmin:
+        return labels
+    head = np.full(top - low + 1, -1, np.int64)
+    head[top - low] = n - 1
+    for lev in range(top, low - 1, -1):
         thr = lev * step
+        cnt = 0
+        p = head[lev - low]
+        while p >= 0:
+            buf[cnt] = p
+            cnt += 1
+            p = nxt[p]
+        head[lev - low] = -1
+        if cnt > 1:
+            buf[:cnt] = np.sort(buf[:cnt])
+        start = tail
+        k = 0
+        while True:
+            if k < cnt:
+                p = buf[k]
+            elif start + (k - cnt) < tail:  # cells labelled in this pass, in queue order
+                p = start + (k - cnt)
+            else:
+                break
+            k += 1
+            r = qr[p]
+            c = qc[p]
+            lab = labels[r, c]
+            wake = -np.inf
+            for d in range(4):
+                rr = r + dr[d]
+                cc = c + dc[d]
+                if rr < 0 or rr >= H or cc < 0 or cc >= W or labels[rr, cc] != 0:
+                    continue
+                v = chm[rr, cc]
+                if v > thr:
+                    labels[rr, cc] = lab
+                    qr[tail] = rr
+                    qc[tail] = cc
+                    tail += 1
+                elif v > wake:
+                    wake = v
+            if wake > hmin:  # can still be labelled, by a later pass
+                w = _rg_level_c(wake, step)
+                if w >= low:
+                    nxt[p] = head[w - low]
+                    head[w - low] = p
     return labels
 
 

@@ -1,5 +1,6 @@
 import numpy as np
 import pytest
+from scipy import ndimage
 
 from lidartrees_gis.detect import local_maxima, treex_maxima, variable_window_maxima
 from lidartrees_gis.grid import GridSpec
@@ -155,3 +156,60 @@ def test_crown_polygons_outline_each_label_with_holes_and_one_piece():
     assert p[0].geom_type == "Polygon" and p[0].area == 9 and p[0].bounds == (3, t - 6, 6, t - 3)
     assert p[1].area == 24 and len(p[1].interiors) == 1 and p[1].is_valid
     assert p[1].bounds == (6, t - 11, 11, t - 6)
+
+
+def _annex2_reference(chm, seeds_r, seeds_c, hmax, hmin, step, labels):
+    """Seed 000 Annex 2 as written: every pass visits every queued cell in queue order (the
+    library visits only the cells that can act in a pass; the labels must be the same)."""
+    H, W = chm.shape
+    q = [(int(r), int(c)) for r, c in zip(seeds_r, seeds_c)]
+    for i, (r, c) in enumerate(q):
+        labels[r, c] = i + 1
+    lev = int(np.floor(hmax / step))
+    if lev * step >= hmax:
+        lev -= 1
+    thr = lev * step
+    while thr > hmin and q:
+        keep = []
+        pos = 0
+        while pos < len(q):
+            r, c = q[pos]
+            pos += 1
+            open_nb = False
+            for rr, cc in ((r - 1, c), (r + 1, c), (r, c - 1), (r, c + 1)):
+                if rr < 0 or rr >= H or cc < 0 or cc >= W or labels[rr, cc] != 0:
+                    continue
+                if chm[rr, cc] > thr:
+                    labels[rr, cc] = labels[r, c]
+                    q.append((rr, cc))
+                elif chm[rr, cc] > hmin:
+                    open_nb = True
+            if open_nb:
+                keep.append((r, c))
+        q = keep
+        lev -= 1
+        thr = lev * step
+    return labels
+
+
+@pytest.mark.parametrize("step,min_height", [(0.1, 2.0), (0.5, 2.0), (2.0, 2.0), (0.1, -1.0),
+                                             (0.25, 0.0)])
+def test_region_growing_equals_annex2_visiting_every_cell(step, min_height):
+    """Crowns that touch and compete for cells, NaN holes, plateaus (ties) and seeds in a
+    given order: the same labels as visiting every queued cell in every pass."""
+    rng = np.random.default_rng(int(step * 100) + 7)
+    chm = ndimage.gaussian_filter(rng.random((90, 110)), 2.0)
+    chm = (chm - chm.min()) / (chm.max() - chm.min()) * 28.0 - 0.5
+    chm[rng.random(chm.shape) < 0.03] = np.nan
+    chm[40:46, 50:58] = 12.0  # a plateau
+    chm = np.round(chm, 1)  # heights on the thresholds themselves
+    peaks = ndimage.maximum_filter(np.nan_to_num(chm, nan=-1), 7) == np.nan_to_num(chm, nan=-1)
+    r, c = np.nonzero(peaks & (np.nan_to_num(chm, nan=-1) > 3))
+    order = rng.permutation(r.size)
+    r, c = r[order], c[order]
+    got = region_growing(chm, r, c, step=step, min_height=min_height)
+    a = np.where(np.isnan(chm), -np.inf, chm)
+    ref = _annex2_reference(a, r, c, float(np.nanmax(chm)), min_height, step,
+                            np.zeros(chm.shape, np.int64))
+    assert r.size > 20 and (ref > 0).sum() > 2000
+    np.testing.assert_array_equal(got, ref)
