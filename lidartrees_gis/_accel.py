@@ -199,8 +199,8 @@ def _layered_tin_py(px, py, pz, band_end, band_edge, max_radius, left, top, res,
     Starts from a super-triangle ~1e4 extents away: a triangle of the points can only differ
     from their Delaunay triangulation if its circumcircle reaches a super vertex, far beyond
     ``max_radius``. Returns the number of points inserted, or -1 (point location did not end),
-    -2 (a cavity that is not star-shaped: the floating-point predicates failed); the caller then
-    uses another triangulator.
+    -2 (a cavity that is not star-shaped: the floating-point predicates failed), -3 (a
+    coordinate that is not a number); the caller then uses another triangulator.
     """
     n = px.shape[0]
     X = np.empty(n + 3)
@@ -388,6 +388,8 @@ def layered_tin(px, py, pz, band_end, band_edge, max_radius, left, top, res, hei
         raise ValueError("layered_tin: needs a circumradius limit > 0")
     if out.shape != (height, width):
         raise ValueError(f"layered_tin: out is {out.shape}, expected {(height, width)}")
+    if not (np.isfinite(px).all() and np.isfinite(py).all() and np.isfinite(pz).all()):
+        return -3  # the walk and the predicates need numbers
     return _layered_tin_nb(np.ascontiguousarray(px, np.float64),
                            np.ascontiguousarray(py, np.float64),
                            np.ascontiguousarray(pz, np.float64), band_end, band_edge,

@@ -9,6 +9,10 @@
   unclassified noise): cells whose highest return stands far above the canopy around them and
   is not joined to it by a continuous surface.
 * :func:`chm_resolution` — the ``-tr auto`` rule for CHMs used to find trees.
+
+The triangulations are a compiled incremental Delaunay triangulation (:func:`_accel.layered_tin`,
+Bowyer-Watson, drawing each layer as it is built; the pit-free CHM's share of the tiled chain fell
+from 55 % to 25 %), with startinpy, then scipy's Qhull, as fallbacks that give the same surfaces.
 """
 from __future__ import annotations
 
@@ -104,7 +108,9 @@ def triangulate(x, y, z):
     """2-D Delaunay triangulation: ``(px, py, pz, triangles)``.
 
     With startinpy (Rust, MIT licence; about 10x faster than Qhull here) coincident points keep
-    the highest z; otherwise scipy's Qhull. Coordinates should be local (small numbers).
+    the highest z; otherwise scipy's Qhull. Coordinates should be local (small numbers). The
+    surfaces use the compiled :func:`_accel.layered_tin` first (3-4x faster again, and it draws
+    while it triangulates); this is its fallback.
     """
     startinpy = _startinpy()
     if startinpy is not None:

@@ -211,6 +211,24 @@ def test_compiled_triangulation_on_a_lattice_with_rows_and_coincident_points(mon
 
 
 @pytest.mark.skipif(not _accel.HAVE_NUMBA, reason="numba not installed")
+def test_compiled_triangulation_refuses_what_it_cannot_triangulate():
+    x = np.array([0.0, 1.0, 0.0, 1.0])
+    y = np.array([0.0, 0.0, 1.0, 1.0])
+    z = np.array([1.0, 2.0, 3.0, 4.0])
+    out = np.full((4, 4), np.nan)
+    grid = (0.0, 1.0, 0.25, 4, 4)
+    assert _accel.layered_tin(x, y, z, [4], [0.0], 10.0, *grid, out) == 4
+    assert np.isfinite(out).sum() >= 9 and np.nanmax(out) <= 4.0
+    y_nan = y.copy()
+    y_nan[2] = np.nan  # left to the fallback triangulators
+    assert _accel.layered_tin(x, y_nan, z, [4], [0.0], 10.0, *grid, np.full((4, 4), np.nan)) == -3
+    with pytest.raises(ValueError, match="bands"):
+        _accel.layered_tin(x, y, z, [3], [0.0], 10.0, *grid, out)
+    with pytest.raises(ValueError, match="circumradius"):
+        _accel.layered_tin(x, y, z, [4], [0.0], 0.0, *grid, out)
+
+
+@pytest.mark.skipif(not _accel.HAVE_NUMBA, reason="numba not installed")
 def test_pitfree_from_one_triangulation_equals_one_triangulation_per_layer(monkeypatch):
     """The layers are built from the top down in one triangulation (each point inserted once);
     the CHM must equal the one from a separate triangulation of every layer."""
