@@ -200,7 +200,8 @@ def _layered_tin_py(px, py, pz, band_end, band_edge, max_radius, left, top, res,
     from their Delaunay triangulation if its circumcircle reaches a super vertex, far beyond
     ``max_radius``. Returns the number of points inserted, or -1 (point location did not end),
     -2 (a cavity that is not star-shaped: the floating-point predicates failed), -3 (a
-    coordinate that is not a number); the caller then uses another triangulator.
+    coordinate that is not a number), -4 (a cavity of over 65,536 triangles); the caller then
+    uses another triangulator.
     """
     n = px.shape[0]
     X = np.empty(n + 3)
@@ -225,25 +226,26 @@ def _layered_tin_py(px, py, pz, band_end, band_edge, max_radius, left, top, res,
     X[n + 1], Y[n + 1] = mx + 2.0 * ext, my - ext
     X[n + 2], Y[n + 2] = mx, my + 2.0 * ext
     Z[n] = Z[n + 1] = Z[n + 2] = 0.0
-    cap = 2 * n + 8
-    tv = np.empty((cap, 3), np.int64)
-    tn = np.full((cap, 3), -1, np.int64)
-    born = np.full(cap, -1, np.int64)  # band that made the triangle; -1 = free slot
-    stamp = np.zeros(cap, np.int64)
-    free = np.empty(cap, np.int64)
+    cap = 2 * n + 8  # triangles: 2 per point and the super-triangle (int32: 130 B per point)
+    tv = np.empty((cap, 3), np.int32)
+    tn = np.full((cap, 3), -1, np.int32)
+    born = np.full(cap, -1, np.int32)  # band that made the triangle; -1 = free slot
+    stamp = np.zeros(cap, np.int32)
+    big = 1 << 16  # the largest cavity (a few triangles in practice; -4 beyond)
+    free = np.empty(big + 8, np.int64)  # a cavity's slots, reused at once by its new triangles
     nfree = 0
     used = 1
     tv[0, 0], tv[0, 1], tv[0, 2] = n, n + 1, n + 2
     born[0] = 0
-    zmod = np.full(n + 3, -1, np.int64)  # band in which a coincident point raised the z
-    start_of = np.empty(n + 3, np.int64)
-    end_of = np.empty(n + 3, np.int64)
-    cav = np.empty(cap, np.int64)
-    ea = np.empty(cap, np.int64)
-    eb = np.empty(cap, np.int64)
-    enb = np.empty(cap, np.int64)
-    eold = np.empty(cap, np.int64)  # side of the outside triangle
-    newt = np.empty(cap, np.int64)
+    zmod = np.full(n + 3, -1, np.int32)  # band in which a coincident point raised the z
+    start_of = np.empty(n + 3, np.int32)
+    end_of = np.empty(n + 3, np.int32)
+    cav = np.empty(big + 8, np.int64)
+    ea = np.empty(big + 8, np.int64)
+    eb = np.empty(big + 8, np.int64)
+    enb = np.empty(big + 8, np.int64)
+    eold = np.empty(big + 8, np.int64)  # side of the outside triangle
+    newt = np.empty(big + 8, np.int64)
     last = 0
     inserted = 0
     v = 0
@@ -303,6 +305,8 @@ def _layered_tin_py(px, py, pz, band_end, band_edge, max_radius, left, top, res,
                     det = (adx * (bdy * cl - cdy * bl) - ady * (bdx * cl - cdx * bl)
                            + al * (bdx * cdy - bdy * cdx))
                     if det > 0.0:
+                        if ncav >= big:
+                            return -4
                         stamp[nb] = stamp_id
                         cav[ncav] = nb
                         ncav += 1
@@ -318,6 +322,8 @@ def _layered_tin_py(px, py, pz, band_end, band_edge, max_radius, left, top, res,
                     b = tv[c, (j + 2) % 3]
                     if (X[a] - qx) * (Y[b] - qy) - (Y[a] - qy) * (X[b] - qx) <= 0.0:
                         return -2
+                    if ne >= big + 8:
+                        return -4
                     ea[ne] = a
                     eb[ne] = b
                     enb[ne] = nb
