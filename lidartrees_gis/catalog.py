@@ -262,10 +262,13 @@ class ReadCache:
     def __init__(self, budget: int = READ_CACHE_BYTES):
         from collections import OrderedDict
 
+        import threading
+
         self.budget = int(budget)
         self.items: "OrderedDict" = OrderedDict()
         self.nbytes = 0
         self.hits = self.misses = 0
+        self._lock = threading.Lock()  # shared by a process's worker threads
 
     @staticmethod
     def key(path, read_kw: dict, drop, keep):
@@ -275,27 +278,30 @@ class ReadCache:
                 None if keep is None else tuple(sorted(keep)))
 
     def get(self, key):
-        hit = self.items.get(key)
-        if hit is None:
-            self.misses += 1
-            return None
-        self.hits += 1
-        self.items.move_to_end(key)
-        return hit[0], hit[1]
+        with self._lock:
+            hit = self.items.get(key)
+            if hit is None:
+                self.misses += 1
+                return None
+            self.hits += 1
+            self.items.move_to_end(key)
+            return hit[0], hit[1]
 
     def put(self, key, chunks: list, dropped: dict) -> None:
         size = sum(_chunk_nbytes(c) for c in chunks)
-        if size > self.budget // 2 or key in self.items:
-            return
-        self.items[key] = (chunks, dict(dropped), size)
-        self.nbytes += size
-        while self.nbytes > self.budget and self.items:
-            _, (_, _, n) = self.items.popitem(last=False)
-            self.nbytes -= n
+        with self._lock:
+            if size > self.budget // 2 or key in self.items:
+                return
+            self.items[key] = (chunks, dict(dropped), size)
+            self.nbytes += size
+            while self.nbytes > self.budget and self.items:
+                _, (_, _, n) = self.items.popitem(last=False)
+                self.nbytes -= n
 
     def clear(self) -> None:
-        self.items.clear()
-        self.nbytes = 0
+        with self._lock:
+            self.items.clear()
+            self.nbytes = 0
 
 
 def _chunk_nbytes(c: PointChunk) -> int:

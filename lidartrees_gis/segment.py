@@ -16,7 +16,8 @@ from .errors import InputError
 
 
 def _jit(fn):
-    return numba.njit(cache=True)(fn) if HAVE_NUMBA else fn
+    # nogil: a process's worker threads grow crowns at the same time
+    return numba.njit(cache=True, nogil=True)(fn) if HAVE_NUMBA else fn
 
 
 def _prepare(chm, rows, cols):
