@@ -90,6 +90,30 @@ def test_dask_cluster_gives_the_same_trees(split_stand, tmp_path):
     assert set(one["tree_ids"]) == set(two["tree_ids"]) and one["tiles"] == two["tiles"] > 1
 
 
+def test_existing_cluster_with_threaded_workers_gives_the_same_trees(split_stand, tmp_path):
+    """--scheduler: the tiles go to a cluster we did not start, here one worker with two
+    threads (what `dask worker` starts on a 2-core machine), so the tiles share the worker's
+    read cache and run at the same time."""
+    pytest.importorskip("dask.distributed")
+    from dask.distributed import LocalCluster
+
+    from lidartrees_gis.catalog import READ_CACHE
+
+    d, _, _ = split_stand
+    one = trees_tiled(d, tmp_path / "one.gpkg", tile_size=30, workers=1)
+    with LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                      dashboard_address=None) as cluster:
+        READ_CACHE.clear()
+        READ_CACHE.hits = READ_CACHE.misses = 0
+        out = tmp_path / "sched.gpkg"
+        assert main(["trees", str(d), str(out), "-tile_size", "30", "--scheduler",
+                     cluster.scheduler_address, "-q"]) == 0
+        assert READ_CACHE.hits > 0  # the worker (this process) kept the files it read
+    got = pyogrio.read_dataframe(out, layer="tree_tops", read_geometry=False)
+    assert set(got["tree_id"]) == set(one["tree_ids"]) and len(got) == one["trees"]
+    assert pyogrio.read_dataframe(out, layer="summary").tiles[0] == one["tiles"] > 1
+
+
 def test_laz_is_decompressed_on_one_thread_inside_a_dask_worker():
     """A worker's siblings already use the other cores: the parallel LAZ decompressor there
     only oversubscribes them (a single process keeps it)."""
