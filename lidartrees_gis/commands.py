@@ -126,8 +126,9 @@ TILES = (
           unit="m"),
     Param("buffer", "float", "Buffer around each tile (default: 8 crown scales, at least 20 m)",
           flag="-buffer", advanced=True, unit="m"),
-    Param("workers", "float", "Worker processes of the local Dask cluster (default: all cores; "
-          "1 = in this process)", flag="-workers", advanced=True),
+    Param("workers", "float", "Worker processes of the local Dask cluster (default: all cores, "
+          "or this process below 1 M points, where starting a cluster costs more than it "
+          "saves; 1 = in this process)", flag="-workers", advanced=True),
     Param("scheduler", "str", "Address of an existing Dask scheduler to run the tiles on, e.g. "
           "tcp://10.0.0.5:8786", flag="--scheduler", advanced=True),
 )

@@ -114,6 +114,26 @@ def test_existing_cluster_with_threaded_workers_gives_the_same_trees(split_stand
     assert pyogrio.read_dataframe(out, layer="summary").tiles[0] == one["tiles"] > 1
 
 
+def test_small_runs_stay_in_this_process_unless_workers_are_asked(split_stand, tmp_path,
+                                                                    monkeypatch):
+    from lidartrees_gis import tiled
+
+    def no_cluster(*a):
+        raise AssertionError("a cluster was started")
+
+    monkeypatch.setattr(tiled, "_client", no_cluster)
+    monkeypatch.delenv("LIDARTREES_WORKERS", raising=False)
+    d, _, _ = split_stand
+    r = trees_tiled(d, tmp_path / "a.gpkg", tile_size=30)  # default workers, few points
+    assert r["tiles"] > 1 and r["points"] < tiled.LOCAL_BELOW_POINTS
+    with pytest.raises(AssertionError, match="cluster"):  # asked for: a cluster
+        trees_tiled(d, tmp_path / "b.gpkg", tile_size=30, workers=2)
+    monkeypatch.setattr(tiled, "LOCAL_BELOW_POINTS", 1000)  # many points: all cores
+    with pytest.raises(AssertionError, match="cluster"):
+        trees_tiled(d, tmp_path / "c.gpkg", tile_size=30)
+    assert tiled.default_workers(None, "tcp://x:8786", 10) is None  # a scheduler: its workers
+
+
 def test_laz_is_decompressed_on_one_thread_inside_a_dask_worker():
     """A worker's siblings already use the other cores: the parallel LAZ decompressor there
     only oversubscribes them (a single process keeps it)."""
