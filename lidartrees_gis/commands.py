@@ -121,8 +121,10 @@ KEEP_CLASS = Param("keep_class", "str", "Use only points of these LAS classes (c
 CLASSES = (DROP_CLASS, KEEP_CLASS)
 TILES = (
     Param("tile_size", "str", "Process in square tiles of this side (m), each with a buffer; "
-          "default 250 when INPUT names several files (a folder, a glob, a .txt list or a .vpc) "
-          "or holds more than 20 M points; none = one tile", flag="-tile_size", advanced=True,
+          "used when INPUT names several files (a folder, a glob, a .txt list or a .vpc) or "
+          "holds more than 20 M points, with a side of about 500,000 points (250 m in dense "
+          "data, up to 1000 m in sparse data) by default; none = one tile", flag="-tile_size",
+          advanced=True,
           unit="m"),
     Param("buffer", "float", "Buffer around each tile (default: 8 crown scales, at least 20 m)",
           flag="-buffer", advanced=True, unit="m"),

@@ -26,12 +26,32 @@ from .errors import InputError
 from .io.vector import start_from_existing
 from .progress import as_progress, check_cancel
 
-#: default tile side (m)
+#: the smallest and largest default tile side (m); between them the side holds about
+#: TILE_POINTS points (see :func:`auto_tile_size`)
 TILE_SIZE = 250.0
+MAX_TILE_SIZE = 1000.0
+TILE_POINTS = 500_000
 #: default buffer = BUFFER_CROWNS x the crown scale, at least MIN_BUFFER m (two DTM triangle
 #: radii, see :data:`lidartrees_gis.grid.DTM_MAX_RADIUS`)
 BUFFER_CROWNS = 8.0
 MIN_BUFFER = 20.0
+
+
+def auto_tile_size(density: float) -> float:
+    """Default tile side (m) for ``density`` points per m² (over the 1 m cells holding points):
+    the side of a square holding :data:`TILE_POINTS` points, rounded to 50 m, between
+    :data:`TILE_SIZE` and :data:`MAX_TILE_SIZE`. Dense data keep 250 m tiles (memory per
+    worker); in sparse data larger tiles spend less of the work on their buffers. Measured on
+    the Megaplot copies (1.9 points per occupied m², so 500 m): 16 M points 39.8 -> 38.6 s on
+    one core and 26.5 -> 24.4 s on two workers, peak RSS +85 MB (610 MB).
+
+    >>> auto_tile_size(1.9), auto_tile_size(4.0), auto_tile_size(25.0), auto_tile_size(0.1)
+    (500.0, 350.0, 250.0, 1000.0)
+    """
+    if not density > 0:
+        return TILE_SIZE
+    side = round(math.sqrt(TILE_POINTS / density) / 50.0) * 50.0
+    return float(min(max(side, TILE_SIZE), MAX_TILE_SIZE))
 
 
 def _surfaces(catalog: Catalog, box, opts: dict):
@@ -140,6 +160,7 @@ def area_parameters(catalog: Catalog, res, params, opts: dict, *, window: float 
         raise InputError(f"{catalog.files[0]}: no points found to measure the point density")
     r = fixed_res if fixed_res is not None else chm_resolution(int(round(np.median(dens) * 1e6)), 1e6)
     out["res"] = r
+    out["density"] = float(np.median(dens))
     # the pit-free edge limit of the area (the single-file rule, median of the windows), the
     # same in every tile
     edges = [e for e in run(_window_edge, boxes, (catalog, opts, r), ordered=True)
@@ -315,7 +336,7 @@ def plan(catalog: Catalog, params, opts: dict, tile_size=None, buffer=None, runn
     ap = area_parameters(catalog, opts.get("res"), params, opts, runner=runner)
     params = replace(params, crown_scale=ap["crown_scale"], dominant_height=ap["dominant_height"])
     opts = {**opts, "res": ap["res"], "max_edge": ap["max_edge"]}
-    ts = float(tile_size) if tile_size else TILE_SIZE
+    ts = float(tile_size) if tile_size else auto_tile_size(ap["density"])
     if math.isfinite(ts):
         ts = max(ap["res"], round(ts / ap["res"]) * ap["res"])  # tile edges on cell edges
     buf = float(buffer) if buffer is not None else max(MIN_BUFFER, BUFFER_CROWNS * ap["crown_scale"])
@@ -595,7 +616,7 @@ def chm_tiled(input, output, *, tile_size=None, buffer=None, workers=None, sched
                              opts, runner=runner)  # the same cell size and edge as trees_tiled
         res = opts["res"] = ap["res"]
         opts["max_edge"] = ap["max_edge"]
-        ts = float(tile_size) if tile_size else TILE_SIZE
+        ts = float(tile_size) if tile_size else auto_tile_size(ap["density"])
         if math.isfinite(ts):
             ts = max(res, round(ts / res) * res)
         buf = float(buffer) if buffer is not None else MIN_BUFFER

@@ -49,6 +49,20 @@ def test_inputs_from_folder_glob_list_and_vpc(split_stand, tmp_path):
         expand_inputs(str(d / "nothing*.laz"))
 
 
+def test_default_tile_side_follows_the_point_density(split_stand, tmp_path):
+    from lidartrees_gis import tiled
+
+    assert tiled.auto_tile_size(1.9) == 500.0  # Megaplot copies: 1.9 points per occupied m²
+    assert tiled.auto_tile_size(4.0) == 350.0
+    assert tiled.auto_tile_size(25.0) == tiled.TILE_SIZE == 250.0  # dense: memory per worker
+    assert tiled.auto_tile_size(0.01) == tiled.MAX_TILE_SIZE
+    assert tiled.auto_tile_size(float("nan")) == tiled.TILE_SIZE
+    d, _, _ = split_stand  # the synthetic stand: 25 points per m², 250 m tiles
+    trees_tiled(d, tmp_path / "a.gpkg", workers=1)
+    summ = pyogrio.read_dataframe(tmp_path / "a.gpkg", layer="summary")
+    assert summ.tile_size[0] == pytest.approx(250.0, abs=0.5)
+
+
 def test_tiles_are_aligned_and_cores_partition_the_area():
     tiles = make_tiles((1010.0, 2020.0, 1290.0, 2230.0), 100.0, 15.0)
     assert {t.index for t in tiles} == {(i, j) for i in (10, 11, 12) for j in (20, 21, 22)}
