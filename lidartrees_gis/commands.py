@@ -122,8 +122,8 @@ CLASSES = (DROP_CLASS, KEEP_CLASS)
 TILES = (
     Param("tile_size", "str", "Process in square tiles of this side (m), each with a buffer; "
           "used when INPUT names several files (a folder, a glob, a .txt list or a .vpc) or "
-          "holds more than 20 M points, with a side of about 500,000 points (250 m in dense "
-          "data, up to 1000 m in sparse data) by default; none = one tile", flag="-tile_size",
+          "holds more than 20 M points; auto (default) = a side of about 500,000 points (250 m "
+          "in dense data, up to 1000 m in sparse data); none = one tile", flag="-tile_size",
           advanced=True,
           unit="m"),
     Param("buffer", "float", "Buffer around each tile (default: 8 crown scales, at least 20 m)",
@@ -249,6 +249,8 @@ def _tiling(input, kw):
     from .errors import InputError
 
     ts = kw.get("tile_size")
+    if ts is not None and str(ts).strip().lower() == "auto":  # the default
+        ts = None
     if ts is not None and str(ts).strip().lower() in ("none", "inf", "0"):
         return float("inf"), True
     if ts not in (None, ""):

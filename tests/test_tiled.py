@@ -61,6 +61,11 @@ def test_default_tile_side_follows_the_point_density(split_stand, tmp_path):
     trees_tiled(d, tmp_path / "a.gpkg", workers=1)
     summ = pyogrio.read_dataframe(tmp_path / "a.gpkg", layer="summary")
     assert summ.tile_size[0] == pytest.approx(250.0, abs=0.5)
+    assert main(["trees", str(d), str(tmp_path / "b.gpkg"), "-tile_size", "auto", "-workers",
+                 "1", "-q"]) == 0  # the default, by name
+    summ = pyogrio.read_dataframe(tmp_path / "b.gpkg", layer="summary")
+    assert summ.tile_size[0] == pytest.approx(250.0, abs=0.5)
+    assert main(["trees", str(d), str(tmp_path / "c.gpkg"), "-tile_size", "big", "-q"]) == 1
 
 
 def test_tiles_are_aligned_and_cores_partition_the_area():
