@@ -320,13 +320,11 @@ def _pitfree_incremental(x, y, zn, spec: GridSpec, ts, max_edge, out):
         edges.append(float(max_edge[0] if i == 0 else max_edge[1]))
         upper = ts[i]
     grid = (spec.left - x0, spec.top - y0, spec.res, spec.height, spec.width)
-    if _accel.HAVE_NUMBA:
-        idx = np.concatenate(bands)
-        ends = np.cumsum([b.size for b in bands])
-        if _accel.layered_tin(lx[idx], ly[idx], zn[idx], ends, edges, LOCAL_RADIUS, *grid,
-                              out) >= 0:
-            return out
-        out[:] = np.nan
+    idx = np.concatenate(bands)  # (the caller checked that numba is there)
+    ends = np.cumsum([b.size for b in bands])
+    if _accel.layered_tin(lx[idx], ly[idx], zn[idx], ends, edges, LOCAL_RADIUS, *grid, out) >= 0:
+        return out
+    out[:] = np.nan  # bands drawn before the predicates failed: all drawn again below
     startinpy = _startinpy()
     if startinpy is None:
         return None

@@ -49,7 +49,7 @@ def _rg_level(v, step):
     return lev
 
 
-_rg_level_c = _jit(_rg_level) if HAVE_NUMBA else _rg_level
+_rg_level_c = _jit(_rg_level)
 
 
 def _rg_kernel(chm, seeds_r, seeds_c, hmax, hmin, step, labels):

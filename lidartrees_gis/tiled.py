@@ -54,6 +54,13 @@ def auto_tile_size(density: float) -> float:
     return float(min(max(side, TILE_SIZE), MAX_TILE_SIZE))
 
 
+def _tile_side(tile_size, density: float, res: float) -> float:
+    """The tile side (m): ``tile_size`` or :func:`auto_tile_size`, on whole cells (inf: one
+    tile)."""
+    ts = float(tile_size) if tile_size else auto_tile_size(density)
+    return max(res, round(ts / res) * res) if math.isfinite(ts) else ts
+
+
 def _surfaces(catalog: Catalog, box, opts: dict):
     """Surfaces of the points in ``box``; None when the box holds no point (a gap between
     files, a corner of the area)."""
@@ -158,9 +165,9 @@ def area_parameters(catalog: Catalog, res, params, opts: dict, *, window: float 
             if np.isfinite(d)]
     if not dens:
         raise InputError(f"{catalog.files[0]}: no points found to measure the point density")
-    r = fixed_res if fixed_res is not None else chm_resolution(int(round(np.median(dens) * 1e6)), 1e6)
-    out["res"] = r
     out["density"] = float(np.median(dens))
+    r = fixed_res if fixed_res is not None else chm_resolution(int(round(out["density"] * 1e6)), 1e6)
+    out["res"] = r
     # the pit-free edge limit of the area (the single-file rule, median of the windows), the
     # same in every tile
     edges = [e for e in run(_window_edge, boxes, (catalog, opts, r), ordered=True)
@@ -336,9 +343,7 @@ def plan(catalog: Catalog, params, opts: dict, tile_size=None, buffer=None, runn
     ap = area_parameters(catalog, opts.get("res"), params, opts, runner=runner)
     params = replace(params, crown_scale=ap["crown_scale"], dominant_height=ap["dominant_height"])
     opts = {**opts, "res": ap["res"], "max_edge": ap["max_edge"]}
-    ts = float(tile_size) if tile_size else auto_tile_size(ap["density"])
-    if math.isfinite(ts):
-        ts = max(ap["res"], round(ts / ap["res"]) * ap["res"])  # tile edges on cell edges
+    ts = _tile_side(tile_size, ap["density"], ap["res"])  # tile edges on cell edges
     buf = float(buffer) if buffer is not None else max(MIN_BUFFER, BUFFER_CROWNS * ap["crown_scale"])
     if buf < 0:
         raise InputError(f"-buffer must be >= 0 m, got {buffer}")
@@ -616,9 +621,7 @@ def chm_tiled(input, output, *, tile_size=None, buffer=None, workers=None, sched
                              opts, runner=runner)  # the same cell size and edge as trees_tiled
         res = opts["res"] = ap["res"]
         opts["max_edge"] = ap["max_edge"]
-        ts = float(tile_size) if tile_size else auto_tile_size(ap["density"])
-        if math.isfinite(ts):
-            ts = max(res, round(ts / res) * res)
+        ts = _tile_side(tile_size, ap["density"], res)
         buf = float(buffer) if buffer is not None else MIN_BUFFER
         tiles = make_tiles(catalog.extent, ts, buf)
         gspec = GridSpec.from_bounds(*catalog.extent, res, crs=catalog.crs)
