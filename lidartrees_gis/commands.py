@@ -220,7 +220,7 @@ def _tree_params(kw):
 
     names = ("method", "smooth", "min_height", "step", "tops", "mean_crown_area", "sd_crown_area",
              "max_crown_area", "min_crown_height", "connectivity", "spacing", "crown_scale",
-             "window_factor", "treex_centred")
+             "window_factor", "treex_centred", "min_separation")
     conv = {"connectivity": int, "treex_centred": bool}
     text = ("method", "smooth", "tops", "spacing")
     vals = {}
@@ -477,6 +477,9 @@ COMMANDS = {
                advanced=True, unit="m"),
          Param("window_factor", "float", "Adaptive window radius for a tree of the dominant "
                "height, in crown scales", flag="-window_factor", default=0.9, advanced=True),
+         Param("min_separation", "float", "Adaptive window: smallest distance between two tops "
+               "(default 2.6 CHM cells, 1.3 m at 4 pts/m²; 0 = no limit)",
+               flag="-min_separation", advanced=True, unit="m"),
          Param("step", "float", "Region-growing threshold step (ajuste, Castro 2006, Annex 2)",
                flag="-step", default=0.1, advanced=True, unit="m"),
          Param("mean_crown_area", "float", "TreeX window: mean crown area", flag="-mean_crown_area",

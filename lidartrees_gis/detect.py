@@ -173,7 +173,8 @@ def window_radius(h, res: float, *, crown_scale: float, dominant_height: float,
 
 
 def adaptive_maxima(chm, res: float, *, crown_scale: float, dominant_height: float,
-                    min_height: float = 2.0, factor: float = 1.0, batch: int = 20000):
+                    min_height: float = 2.0, factor: float = 1.0, min_separation: float = 0.0,
+                    batch: int = 20000):
     """Tree tops with a circular window scaled by the stand's crown size and the tree's height.
 
     A cell is a top when it is at least ``min_height`` and the highest cell within
@@ -182,7 +183,9 @@ def adaptive_maxima(chm, res: float, *, crown_scale: float, dominant_height: flo
     between them, and the whole window follows the crown size measured on the stand
     (:func:`lidartrees_gis.chm.crown_scale`) rather than a fixed function of height, so a
     3 x 2 m eucalyptus stand and a conifer forest of the same height both come out right.
-    One top per plateau as in :func:`local_maxima`.
+    One top per plateau as in :func:`local_maxima`. Tops closer than ``min_separation`` metres to
+    a higher top are then dropped, highest first (the two sides of a crown apex that no return
+    hit, in sparse data).
 
     Parameters
     ----------
@@ -196,6 +199,8 @@ def adaptive_maxima(chm, res: float, *, crown_scale: float, dominant_height: flo
     min_height : float
     factor : float
         Radius in crown scales for a tree of the dominant height.
+    min_separation : float
+        Smallest distance (m) between two tops; 0 = no limit.
     batch : int
         Candidates tested at once (memory bound).
     """
@@ -227,4 +232,35 @@ def adaptive_maxima(chm, res: float, *, crown_scale: float, dominant_height: flo
             keep[sel] = a[r[sel], c[sel]] >= pad[rr, cc].max(axis=1)
     mask = np.zeros(a.shape, bool)
     mask[r[keep], c[keep]] = True
-    return _one_per_component(mask, a)
+    rows, cols = _one_per_component(mask, a)
+    if min_separation > 0 and rows.size > 1:
+        rows, cols = separate_tops(rows, cols, a[rows, cols], min_separation / res)
+    return rows, cols
+
+
+def separate_tops(rows, cols, heights, distance: float):
+    """Drop every top within ``distance`` cells of a higher kept top (greedy, highest first;
+    equal heights: the first in row order wins). Returns ``(rows, cols)`` sorted by row, column.
+    """
+    from scipy.spatial import cKDTree
+
+    rows, cols = np.asarray(rows, np.int64), np.asarray(cols, np.int64)
+    xy = np.column_stack([rows, cols]).astype(np.float64)
+    pairs = cKDTree(xy).query_pairs(distance + 1e-9, output_type="ndarray")
+    keep = np.ones(rows.size, bool)
+    if pairs.size:
+        order = np.lexsort((cols, rows, -np.asarray(heights, np.float64)))
+        rank = np.empty(rows.size, np.int64)
+        rank[order] = np.arange(rows.size)
+        # each pair as (higher-ranked, lower-ranked)
+        hi = np.where(rank[pairs[:, 0]] < rank[pairs[:, 1]], pairs[:, 0], pairs[:, 1])
+        lo = np.where(rank[pairs[:, 0]] < rank[pairs[:, 1]], pairs[:, 1], pairs[:, 0])
+        o = np.argsort(rank[hi], kind="stable")
+        hi, lo = hi[o], lo[o]
+        start = np.searchsorted(rank[hi], rank[order])
+        stop = np.searchsorted(rank[hi], rank[order], side="right")
+        for k, i in enumerate(order):
+            if keep[i] and start[k] < stop[k]:
+                keep[lo[start[k]:stop[k]]] = False
+    o = np.lexsort((cols[keep], rows[keep]))
+    return rows[keep][o], cols[keep][o]

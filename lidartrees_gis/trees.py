@@ -21,6 +21,8 @@ TOPS = ("auto", "aw", "lm", "strict", "treex", "vwf")
 SIGMA_FACTOR = 0.1
 #: -spacing RxC: crown scale = SPACING_FACTOR x the smaller spacing
 SPACING_FACTOR = 0.3
+#: adaptive window: default smallest distance between two tops, in CHM cells (1.3 m at 4 pts/m²)
+SEPARATION_CELLS = 2.6
 
 
 def parse_spacing(value):
@@ -83,6 +85,9 @@ class TreeParams:
     dominant_height : float, optional
         Dominant height (m) for the adaptive window; default the 95th percentile of the CHM's
         canopy heights (tiled runs measure it once for the whole area).
+    min_separation : float, optional
+        Adaptive window: smallest distance (m) between two tops; default ``SEPARATION_CELLS``
+        cells (1.3 m at 0.5 m, the cell size of 4 pts/m²). 0 = no limit.
     treex_centred : bool
         TreeX: also require a top to be the highest of the window centred on it (drops one of
         two close trees; off as in the seed).
@@ -103,6 +108,7 @@ class TreeParams:
     window_factor: float = 0.9
     treex_centred: bool = False
     dominant_height: float | None = None
+    min_separation: float | None = None
 
     def __post_init__(self):
         if self.method not in METHODS:
@@ -119,6 +125,9 @@ class TreeParams:
             raise InputError(f"-crown_scale must be > 0 (m), got {self.crown_scale}")
         if not (np.isfinite(self.window_factor) and self.window_factor > 0):
             raise InputError(f"-window_factor must be > 0, got {self.window_factor}")
+        if self.min_separation is not None and not (np.isfinite(self.min_separation)
+                                                    and self.min_separation >= 0):
+            raise InputError(f"-min_separation must be >= 0 (m), got {self.min_separation}")
         if not (np.isfinite(self.step) and self.step > 0):
             raise InputError(f"-step must be > 0 (m), got {self.step}")
 
@@ -178,9 +187,10 @@ def find_tops(chm_s, res, p: TreeParams, auto: dict | None = None):
         return variable_window_maxima(chm_s, res, min_height=p.min_height)
     if which == "aw":
         auto = auto or resolve_auto(chm_s, res, p)
+        sep = SEPARATION_CELLS * res if p.min_separation is None else p.min_separation
         return adaptive_maxima(chm_s, res, crown_scale=auto["crown_scale"],
                                dominant_height=auto["dominant_height"], min_height=p.min_height,
-                               factor=p.window_factor)
+                               factor=p.window_factor, min_separation=sep)
     return local_maxima(chm_s, min_height=p.min_height, strict=(which == "strict"))
 
 
@@ -220,7 +230,8 @@ def detect_trees(chm, spec: GridSpec, params: TreeParams | None = None, *, heigh
     params : TreeParams
     heights : (M, N) ndarray of float, optional
         Where tree heights are read (highest value in the crown); default ``chm``. From points,
-        the pit-free CHM or the highest return of the cell, whichever is higher.
+        the pit-free CHM or the highest return of the cell, whichever is higher. The adaptive
+        window (``tops="aw"``) also finds the tops on it, smoothed as the CHM.
 
     Returns
     -------
@@ -238,7 +249,17 @@ def detect_trees(chm, spec: GridSpec, params: TreeParams | None = None, *, heigh
     if p.method == "watershed":
         labels, rows, cols = _watershed_tops(vincent_soille(chm_s), chm_s, p.min_height)
     else:
-        rows, cols = find_tops(chm_s, spec.res, p, auto)
+        surface = chm_s
+        if heights is not None and p.tops_finder == "aw":
+            # the adaptive window looks for tops on the tree heights (the highest return where a
+            # cell has one, else the CHM): in sparse data the CHM's triangles bridge from a
+            # lower crown's apex to a taller neighbour and hide it
+            hs = np.asarray(heights, np.float64)
+            if hs.shape != chm.shape:
+                raise InputError(f"heights: shape {hs.shape} differs from the CHM's {chm.shape}")
+            surface = smooth_chm(hs, auto["smooth"] if p.smooth == "auto" else p.smooth,
+                                 res=spec.res)
+        rows, cols = find_tops(surface, spec.res, p, auto)
         if p.method == "rg":
             labels = region_growing(chm_s, rows, cols, step=p.step, min_height=p.min_height)
         elif p.method == "treex":

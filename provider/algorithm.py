@@ -190,6 +190,7 @@ LABELS = {
     "tolerance": "Tolerance above the surface", "tops": "Tree-top rule",
     "treex_centred": "TreeX: also highest of the centred window", "w_growth": "w growth per level",
     "window_factor": "Window factor", "workers": "Workers",
+    "min_separation": "Smallest distance between tops",
 }
 
 
