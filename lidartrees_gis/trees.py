@@ -260,6 +260,10 @@ def detect_trees(chm, spec: GridSpec, params: TreeParams | None = None, *, heigh
             surface = smooth_chm(hs, auto["smooth"] if p.smooth == "auto" else p.smooth,
                                  res=spec.res)
         rows, cols = find_tops(surface, spec.res, p, auto)
+        if surface is not chm_s:
+            # a single return over low vegetation is no tree: the crown must reach min_height
+            ok = np.nan_to_num(chm_s[rows, cols], nan=-np.inf) >= p.min_height
+            rows, cols = rows[ok], cols[ok]
         if p.method == "rg":
             labels = region_growing(chm_s, rows, cols, step=p.step, min_height=p.min_height)
         elif p.method == "treex":

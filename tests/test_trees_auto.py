@@ -304,3 +304,18 @@ def test_sparse_stand_tops_on_tree_heights_with_separation(tmp_path):
     assert best["f_score"] >= 0.96
     assert best["recall"] > chm_only["recall"] + 0.005
     assert best["precision"] > no_sep["precision"] + 0.03
+
+
+def test_a_lone_return_over_low_vegetation_is_no_tree():
+    res = 0.5
+    chm = crowns((40, 40), [(5.25, 5.25, 20.0), (14.25, 14.25, 18.0)], res, radius=2.0)
+    chm = np.maximum(chm, 1.0)  # shrubs at 1 m between the trees
+    heights = chm.copy()
+    heights[rc(res, 15.0, 4.0)] = 3.5  # one return at 3.5 m over the shrubs
+    heights[rc(res, 4.0, 15.0)] = 6.0
+    spec = GridSpec(0, 20, res, 40, 40)
+    t = detect_trees(chm, spec, TreeParams(), heights=heights)["table"]
+    assert len(t["x"]) == 2
+    assert np.allclose(sorted(t["height"]), [18.0, 20.0])
+    # on the CHM alone the same two trees
+    assert len(detect_trees(chm, spec, TreeParams())["table"]["x"]) == 2
