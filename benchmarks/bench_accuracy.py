@@ -104,9 +104,9 @@ def synthetic(tmp: Path, cfg: dict) -> dict:
 
 
 def density_sweep(tmp: Path) -> dict:
-    """Defaults on the 3 x 2 m stand at 4-12 pts/m² (two seeds each)."""
+    """Defaults on the 3 x 2 m stand at 2-12 pts/m² (two seeds each)."""
     out = {}
-    for dens in (4.0, 6.0, 8.0, 12.0):
+    for dens in (2.0, 3.0, 4.0, 6.0, 8.0, 12.0):
         for seed in (3, 11):
             pts, truth = make_stand(StandParams(seed=seed, density=dens))
             f = tmp / f"sweep_{seed}_{dens:g}.las"

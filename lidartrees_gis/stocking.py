@@ -102,8 +102,10 @@ def fit_planting_grid(x, y, row_spacing: float, tree_spacing: float) -> Planting
     fine = best + np.arange(-0.5, 0.5001, 0.05)
     s, phu, phv = score(fine)
     k = int(np.argmax(s))
+    # the offset in the directions of the angle the phases were measured at (a best angle just
+    # under 0° is reported as just under 180°, whose directions are the opposite ones)
+    a = np.radians(float(fine[k]))
     az = round(float(fine[k]) % 180.0, 2) % 180.0
-    a = np.radians(az)
     u = np.array([np.sin(a), np.cos(a)])
     v = np.array([np.cos(a), -np.sin(a)])
     ou = phu[k] / (2 * np.pi) * tree_spacing

@@ -23,6 +23,8 @@ SIGMA_FACTOR = 0.1
 SPACING_FACTOR = 0.3
 #: adaptive window: default smallest distance between two tops, in CHM cells (1.3 m at 4 pts/m²)
 SEPARATION_CELLS = 2.6
+#: ... but at most this many crown scales (in-row trees of a 3 x 2 m stand are about 2.9 apart)
+SEPARATION_CROWNS = 1.8
 
 
 def parse_spacing(value):
@@ -87,7 +89,8 @@ class TreeParams:
         canopy heights (tiled runs measure it once for the whole area).
     min_separation : float, optional
         Adaptive window: smallest distance (m) between two tops; default ``SEPARATION_CELLS``
-        cells (1.3 m at 0.5 m, the cell size of 4 pts/m²). 0 = no limit.
+        cells (1.3 m at 0.5 m, the cell size of 4 pts/m²), at most ``SEPARATION_CROWNS`` crown
+        scales (sparser data, where more cells would join trees of one row). 0 = no limit.
     treex_centred : bool
         TreeX: also require a top to be the highest of the window centred on it (drops one of
         two close trees; off as in the seed).
@@ -187,7 +190,9 @@ def find_tops(chm_s, res, p: TreeParams, auto: dict | None = None):
         return variable_window_maxima(chm_s, res, min_height=p.min_height)
     if which == "aw":
         auto = auto or resolve_auto(chm_s, res, p)
-        sep = SEPARATION_CELLS * res if p.min_separation is None else p.min_separation
+        sep = p.min_separation
+        if sep is None:
+            sep = min(SEPARATION_CELLS * res, SEPARATION_CROWNS * auto["crown_scale"])
         return adaptive_maxima(chm_s, res, crown_scale=auto["crown_scale"],
                                dominant_height=auto["dominant_height"], min_height=p.min_height,
                                factor=p.window_factor, min_separation=sep)
