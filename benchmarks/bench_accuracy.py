@@ -151,6 +151,7 @@ def neon(tmp: Path, cfg: dict) -> dict:
         return {}
     rows = list(csv.DictReader(open(boxes_f)))
     per, total, one, tops, outside, secs = {}, 0, 0, 0, 0, 0.0
+    tall, tall_out = 0, 0
     for laz in sorted((DATA / "neon_teak_dev").glob("TEAK_*.laz")):
         b = [r for r in rows if r["plot_id"] == laz.stem]
         if not b:
@@ -165,6 +166,9 @@ def neon(tmp: Path, cfg: dict) -> dict:
                    & (y <= float(bb["ymax"])))
             k += int(ins.sum() == 1)
             inany |= ins
+        h = r["result"]["table"]["height"]
+        tall += int((h >= 10).sum())
+        tall_out += int(((h >= 10) & ~inany).sum())
         per[laz.stem] = {"boxes": len(b), "one_top": k, "tops": int(len(x)),
                          "tops_outside": int((~inany).sum()), "res": r["res"],
                          "crown_scale": r["crown_scale"]}
@@ -177,7 +181,16 @@ def neon(tmp: Path, cfg: dict) -> dict:
             "outside_share": round(outside / max(tops, 1), 4),
             "lidR_one_top_share": LIDR["neon_one_top_share"],
             "lidR_outside_share": LIDR["neon_outside_share"], "seconds": round(secs, 2),
+            # for the record, not the acceptance: the three plots with 5-20 boxes for 26-55 tops
+            # (045, 047, 050) left out, and tops of 10 m or more only
+            "outside_share_without_045_047_050": _share_without(per, ("TEAK_045", "TEAK_047", "TEAK_050")),
+            "outside_share_tops_10m_or_more": round(tall_out / max(tall, 1), 4),
             "plots": per}
+
+
+def _share_without(per: dict, left_out) -> float:
+    kept = [v for k, v in per.items() if k not in left_out]
+    return round(sum(v["tops_outside"] for v in kept) / max(sum(v["tops"] for v in kept), 1), 4)
 
 
 def bcts(tmp: Path, cfg: dict) -> dict:
