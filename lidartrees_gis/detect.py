@@ -253,8 +253,9 @@ def separate_tops(rows, cols, heights, distance: float):
         rank = np.empty(rows.size, np.int64)
         rank[order] = np.arange(rows.size)
         # each pair as (higher-ranked, lower-ranked)
-        hi = np.where(rank[pairs[:, 0]] < rank[pairs[:, 1]], pairs[:, 0], pairs[:, 1])
-        lo = np.where(rank[pairs[:, 0]] < rank[pairs[:, 1]], pairs[:, 1], pairs[:, 0])
+        first_higher = rank[pairs[:, 0]] < rank[pairs[:, 1]]
+        hi = np.where(first_higher, pairs[:, 0], pairs[:, 1])
+        lo = np.where(first_higher, pairs[:, 1], pairs[:, 0])
         o = np.argsort(rank[hi], kind="stable")
         hi, lo = hi[o], lo[o]
         start = np.searchsorted(rank[hi], rank[order])

@@ -246,24 +246,26 @@ def detect_trees(chm, spec: GridSpec, params: TreeParams | None = None, *, heigh
     Every crown holds exactly its own top; heights come from the unsmoothed ``chm``.
     """
     p = params or TreeParams()
+    # a raster CHM comes with itself as its heights: nothing more to smooth or search
+    same = heights is None or heights is chm
     chm = np.asarray(chm, dtype=np.float64)
     auto = None
     if p.smooth == "auto" or p.tops_finder == "aw":
         auto = resolve_auto(chm, spec.res, p)
-    chm_s = smooth_chm(chm, auto["smooth"] if p.smooth == "auto" else p.smooth, res=spec.res)
+    smooth = auto["smooth"] if p.smooth == "auto" else p.smooth
+    chm_s = smooth_chm(chm, smooth, res=spec.res)
     if p.method == "watershed":
         labels, rows, cols = _watershed_tops(vincent_soille(chm_s), chm_s, p.min_height)
     else:
         surface = chm_s
-        if heights is not None and p.tops_finder == "aw":
+        if not same and p.tops_finder == "aw":
             # the adaptive window looks for tops on the tree heights (the highest return where a
             # cell has one, else the CHM): in sparse data the CHM's triangles bridge from a
             # lower crown's apex to a taller neighbour and hide it
             hs = np.asarray(heights, np.float64)
             if hs.shape != chm.shape:
                 raise InputError(f"heights: shape {hs.shape} differs from the CHM's {chm.shape}")
-            surface = smooth_chm(hs, auto["smooth"] if p.smooth == "auto" else p.smooth,
-                                 res=spec.res)
+            surface = smooth_chm(hs, smooth, res=spec.res)
         rows, cols = find_tops(surface, spec.res, p, auto)
         if surface is not chm_s:
             # a single return over low vegetation is no tree: the crown must reach min_height

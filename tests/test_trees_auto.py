@@ -162,8 +162,8 @@ def test_planting_grid_lies_on_the_stems_at_every_azimuth(az):
     ii, jj = np.meshgrid(np.arange(-14, 16), np.arange(-9, 11))
     keep = rng.random(ii.size) > 0.2  # gaps: the mean position is off the lattice
     ii, jj = ii.ravel()[keep], jj.ravel()[keep]
-    px = 412301.37 + ii.ravel() * 2.0 * u[0] + jj.ravel() * 3.0 * v[0]
-    py = 7952401.81 + ii.ravel() * 2.0 * u[1] + jj.ravel() * 3.0 * v[1]
+    px = 412301.37 + ii * 2.0 * u[0] + jj * 3.0 * v[0]
+    py = 7952401.81 + ii * 2.0 * u[1] + jj * 3.0 * v[1]
     g = fit_planting_grid(px + rng.normal(0, 0.05, px.size), py + rng.normal(0, 0.05, py.size),
                           3, 2)
     fi, fj = g.to_lattice(px, py)
@@ -307,34 +307,34 @@ def test_sparse_stand_tops_on_tree_heights_with_separation(tmp_path):
     from lidartrees_gis.pipeline import load_chm
     from lidartrees_gis.synthetic import CRS, StandParams, make_stand
 
-    pts, truth = make_stand(StandParams(seed=3, density=4.0))
-    f = tmp_path / "sparse.las"
-    write_points(f, pts.x, pts.y, pts.z, crs=PCRS.from_user_input(CRS),
-                 classification=pts.classification)
-    arr, spec, _, info = load_chm(f)
+    def stand_chm(density):
+        pts, truth = make_stand(StandParams(seed=3, density=density))
+        f = tmp_path / f"stand_{density:g}.las"
+        write_points(f, pts.x, pts.y, pts.z, crs=PCRS.from_user_input(CRS),
+                     classification=pts.classification)
+        arr, spec, _, info = load_chm(f)
+        return arr, spec, info["heights"], truth
 
-    def f_score(heights, **kw):
-        t = detect_trees(arr, spec, TreeParams(**kw), heights=heights)["table"]
+    def f_score(stand, heights=True, **kw):
+        arr, spec, hs, truth = stand
+        t = detect_trees(arr, spec, TreeParams(**kw), heights=hs if heights else None)["table"]
         return evaluate_trees(t["x"], t["y"], t["height"], truth["x"], truth["y"],
                               truth["height"])["all"]
 
-    best = f_score(info["heights"])
-    chm_only = f_score(None)
-    no_sep = f_score(info["heights"], min_separation=0.0)
+    sparse = stand_chm(4.0)
+    best = f_score(sparse)
+    chm_only = f_score(sparse, heights=False)
+    no_sep = f_score(sparse, min_separation=0.0)
     assert best["f_score"] >= 0.96
     assert best["recall"] > chm_only["recall"] + 0.005
     assert best["precision"] > no_sep["precision"] + 0.03
     # 2 pts/m² (0.7 m cells): 2.6 cells would be 1.8 m and join trees of one row; the crown
     # scale caps it
-    pts, truth = make_stand(StandParams(seed=3, density=2.0))
-    f = tmp_path / "sparser.las"
-    write_points(f, pts.x, pts.y, pts.z, crs=PCRS.from_user_input(CRS),
-                 classification=pts.classification)
-    arr, spec, _, info = load_chm(f)
-    capped = f_score(info["heights"])
-    cells = f_score(info["heights"], min_separation=2.6 * spec.res)
+    sparser = stand_chm(2.0)
+    capped = f_score(sparser)
+    cells = f_score(sparser, min_separation=2.6 * sparser[1].res)
     assert capped["f_score"] > cells["f_score"] + 0.05
-    assert capped["f_score"] > f_score(None, min_separation=0.0)["f_score"] + 0.02
+    assert capped["f_score"] > f_score(sparser, heights=False, min_separation=0.0)["f_score"] + 0.02
 
 
 def test_a_lone_return_over_low_vegetation_is_no_tree():
