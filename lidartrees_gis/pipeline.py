@@ -285,6 +285,8 @@ def compute_surfaces(src: PointSource, res, *, dtm="auto", fill="mean8", chm="ma
     if out_cells.any():
         out_points = int(out_cells.sum())
         dsm_raw = np.where(out_cells, np.nan, dsm_raw)
+    # the highest return above ground of each cell (NaN: none); plantation mode looks at it
+    returns = dsm_raw - dtm_arr
     prog.update(0.88, "filling gaps")
     dsm = fill_gaps(dsm_raw, fill, progress=SubProgress(prog, 0.88, 0.9), mask=footprint)
     if chm == "max":
@@ -316,7 +318,8 @@ def compute_surfaces(src: PointSource, res, *, dtm="auto", fill="mean8", chm="ma
         # tree heights: the highest return of a cell is above the TIN at its centre
         heights = np.fmax(chm_arr, dsm_raw - dtm_arr)
     prog.update(0.95, "canopy height")
-    return {"dsm": dsm, "dtm": dtm_arr, "chm": chm_arr, "heights": heights, "spec": spec, "res": res,
+    return {"dsm": dsm, "dtm": dtm_arr, "chm": chm_arr, "heights": heights, "returns": returns,
+            "spec": spec, "res": res,
             "dtm_method": _dtm_label(method, kind), "chm_method": chm,
             "points": n, "outside": acc.outside, "dropped": dict(src.dropped),
             "outlier_cells": int(out_cells.sum()), "outlier_points": out_points}
@@ -511,7 +514,7 @@ def load_chm(input, *, res="auto", dtm="auto", chm="pitfree", fill="mean8", outl
     s = compute_surfaces(src, "auto" if res is None else res, dtm=dtm, fill=fill, chm=chm,
                          outliers=outliers, progress=progress)
     info = {"res": s["res"], "dtm": s["dtm_method"], "chm": chm, "points": s["points"],
-            "heights": s["heights"], **_filter_report(src, s), "repro": _repro_meta(src),
+            "heights": s["heights"], "returns": s["returns"], **_filter_report(src, s), "repro": _repro_meta(src),
             "reprojection": _repro_report(src)}
     return s["chm"], s["spec"], str(input), info
 
@@ -561,7 +564,9 @@ def trees_frames(result: dict, spec: GridSpec, nln: str = ""):
                     "planting_positions": st["expected"], "stocked_positions": st["stocked"],
                     "missing_trees": st["missing"], "extra_tops": st["extra"],
                     "stocking_pct": st["stocking_pct"], "planted_per_ha": st["planted_per_ha"],
-                    "planted_area_ha": st["planted_area_ha"]})
+                    "planted_area_ha": st["planted_area_ha"],
+                    # trees found by the second look at the empty positions (gap_tops)
+                    "gap_trees": int(result.get("gap_trees", 0))})
         gaps = gpd.GeoDataFrame(
             {"gap_id": np.arange(1, st["missing"] + 1, dtype=np.int64),
              "row_index": st["gaps_j"], "position_in_row": st["gaps_i"],
@@ -691,21 +696,42 @@ def quicklook_title(summary: dict, source) -> str:
     return f"{name}\n" + " · ".join(p for p in parts if p)
 
 
-def detect_with_stocking(arr, spec, params, heights=None, progress=None) -> dict:
+def detect_with_stocking(arr, spec, params, heights=None, progress=None, *, returns=None) -> dict:
     """:func:`lidartrees_gis.trees.detect_trees` on a CHM, plus the stocking of the fitted
-    planting grid in plantation mode (``params.spacing``); the CHM is kept as ``result["chm"]``."""
+    planting grid in plantation mode (``params.spacing``); the CHM is kept as ``result["chm"]``.
+
+    In plantation mode, with ``returns`` (the highest return above ground of each cell, from
+    points), the empty planting positions are searched once more for a tree the tops finder
+    missed (:func:`lidartrees_gis.stocking.gap_tops`); the crowns are then grown again from all
+    tops and ``result["gap_trees"]`` says how many were added.
+    """
     from .trees import detect_trees
 
     result = detect_trees(arr, spec, params, heights=heights)
     check_cancel(progress)
     result["chm"] = arr
     if params.spacing is not None:
-        from .stocking import stocking
+        from .stocking import gap_tops, stocking
 
         as_progress(progress).update(0.75, "planting grid")
         t = result["table"]
-        result["stocking"] = stocking(t["x"], t["y"], arr, spec, params.spacing,
-                                      min_height=params.min_height)
+        st = stocking(t["x"], t["y"], arr, spec, params.spacing, min_height=params.min_height)
+        added = 0
+        if returns is not None and st["missing"]:
+            rows, cols = gap_tops(st["gaps_x"], st["gaps_y"], returns, result["smoothed"], spec,
+                                  params.spacing, top_x=t["x"], top_y=t["y"],
+                                  min_height=params.min_height)
+            added = int(rows.size)
+            if added:
+                check_cancel(progress)
+                result = detect_trees(arr, spec, params, heights=heights,
+                                      tops=(np.r_[t["row"], rows], np.r_[t["col"], cols]))
+                result["chm"] = arr
+                t = result["table"]
+                st = stocking(t["x"], t["y"], arr, spec, params.spacing,
+                              min_height=params.min_height)
+        result["stocking"] = st
+        result["gap_trees"] = added
     return result
 
 
@@ -734,7 +760,8 @@ def trees_file(input, output, *, res="auto", params=None, dtm="auto", chm="pitfr
                                         progress=SubProgress(prog, 0, 0.5), **read_kw)
     prog.update(0.5, "detecting trees")
     check_cancel(prog)
-    result = detect_with_stocking(arr, spec, p, built.get("heights"), prog)
+    result = detect_with_stocking(arr, spec, p, built.get("heights"), prog,
+                                  returns=built.get("returns"))
     t = result["table"]
     prog.update(0.8, "writing")
     frames = trees_frames(result, spec, nln)
@@ -777,7 +804,7 @@ def trees_file(input, output, *, res="auto", params=None, dtm="auto", chm="pitfr
            "reprojection": built.get("reprojection"), "result": result, "spec": spec}
     if "stocking_pct" in srow:
         out.update({k: srow[k] for k in ("spacing", "row_azimuth", "planting_positions",
-                                         "missing_trees")})
+                                         "missing_trees", "gap_trees")})
         out["stocking_pct"] = _round(srow["stocking_pct"], 2)
     return out
 

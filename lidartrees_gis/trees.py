@@ -223,7 +223,8 @@ def _watershed_tops(labels, chm_s, min_height):
     return remap[lab], rows.astype(np.int64), cols.astype(np.int64)
 
 
-def detect_trees(chm, spec: GridSpec, params: TreeParams | None = None, *, heights=None) -> dict:
+def detect_trees(chm, spec: GridSpec, params: TreeParams | None = None, *, heights=None,
+                 tops=None) -> dict:
     """Tree tops, crowns and per-tree measures on a CHM.
 
     Parameters
@@ -237,6 +238,10 @@ def detect_trees(chm, spec: GridSpec, params: TreeParams | None = None, *, heigh
         Where tree heights are read (highest value in the crown); default ``chm``. From points,
         the pit-free CHM or the highest return of the cell, whichever is higher. The adaptive
         window (``tops="aw"``) also finds the tops on it, smoothed as the CHM.
+    tops : (rows, cols) of int, optional
+        Grow the crowns from these tops (cells of the grid) instead of finding them (plantation
+        mode adds the trees found at empty planting positions). The method's own growing is
+        used; the watershed method grows marker-controlled basins from them.
 
     Returns
     -------
@@ -254,7 +259,10 @@ def detect_trees(chm, spec: GridSpec, params: TreeParams | None = None, *, heigh
         auto = resolve_auto(chm, spec.res, p)
     smooth = auto["smooth"] if p.smooth == "auto" else p.smooth
     chm_s = smooth_chm(chm, smooth, res=spec.res)
-    if p.method == "watershed":
+    if tops is not None:
+        rows, cols = (np.asarray(a, np.int64) for a in tops)
+        labels = _grow(chm_s, rows, cols, spec.res, p)
+    elif p.method == "watershed":
         labels, rows, cols = _watershed_tops(vincent_soille(chm_s), chm_s, p.min_height)
     else:
         surface = chm_s
@@ -271,18 +279,22 @@ def detect_trees(chm, spec: GridSpec, params: TreeParams | None = None, *, heigh
             # a single return over low vegetation is no tree: the crown must reach min_height
             ok = np.nan_to_num(chm_s[rows, cols], nan=-np.inf) >= p.min_height
             rows, cols = rows[ok], cols[ok]
-        if p.method == "rg":
-            labels = region_growing(chm_s, rows, cols, step=p.step, min_height=p.min_height)
-        elif p.method == "treex":
-            labels = treex_growing(chm_s, rows, cols, spec.res, max_crown_area=p.max_crown_area,
-                                   min_crown_height=p.min_crown_height, connectivity=p.connectivity)
-        else:
-            labels = marker_watershed(chm_s, rows, cols, min_height=p.min_height)
+        labels = _grow(chm_s, rows, cols, spec.res, p)
     labels = keep_top_components(labels, rows, cols)
     table = tree_table(labels, rows, cols, chm if heights is None else heights, spec)
     table["method"] = np.array([p.method] * len(rows), dtype=object)
     return {"table": table, "labels": labels, "smoothed": chm_s, "params": p, "auto": auto,
             "tops": p.tops_finder if p.method != "watershed" else "watershed basins"}
+
+
+def _grow(chm_s, rows, cols, res: float, p: TreeParams):
+    """Crowns grown from the tops by ``p.method`` (region growing, TreeX, else marker watershed)."""
+    if p.method == "rg":
+        return region_growing(chm_s, rows, cols, step=p.step, min_height=p.min_height)
+    if p.method == "treex":
+        return treex_growing(chm_s, rows, cols, res, max_crown_area=p.max_crown_area,
+                             min_crown_height=p.min_crown_height, connectivity=p.connectivity)
+    return marker_watershed(chm_s, rows, cols, min_height=p.min_height)
 
 
 def match_trees(det_x, det_y, ref_x, ref_y, max_dist: float = 1.0):

@@ -350,3 +350,86 @@ def test_a_lone_return_over_low_vegetation_is_no_tree():
     assert np.allclose(sorted(t["height"]), [18.0, 20.0])
     # on the CHM alone the same two trees
     assert len(detect_trees(chm, spec, TreeParams())["table"]["x"]) == 2
+
+
+def test_given_tops_grow_the_same_crowns_as_found_tops():
+    res = 0.5
+    chm = crowns((40, 40), [(5.25, 5.25, 20.0), (14.25, 14.25, 18.0), (5.25, 14.25, 15.0)],
+                 res, radius=2.5)
+    spec = GridSpec(0, 20, res, 40, 40)
+    for method in ("rg", "treex", "watershed"):
+        p = TreeParams(method=method)
+        found = detect_trees(chm, spec, p)
+        t = found["table"]
+        again = detect_trees(chm, spec, p, tops=(t["row"], t["col"]))
+        assert len(t["x"]) == 3
+        np.testing.assert_array_equal(again["labels"], found["labels"])
+        np.testing.assert_allclose(again["table"]["height"], t["height"])
+
+
+def test_gap_tops_take_an_apex_return_at_an_empty_position_only():
+    """A lower tree whose apex has no local maximum on the CHM (the CHM bridges to its taller
+    neighbour) is found at its planting position from its apex return; a flank return, a
+    return near a detected top and a low return are not."""
+    from lidartrees_gis.stocking import gap_tops
+
+    res = 0.5
+    spec = GridSpec(0, 20, res, 40, 40)
+    returns = np.full(spec.shape, np.nan)
+    chm = np.full(spec.shape, 15.0)
+    tall = (10.25, 10.25)     # detected top
+    low = (12.25, 10.25)      # position 2 m along the row, apex 18 m: no valley return
+    returns[rc(res, *tall)] = 24.0
+    returns[rc(res, 11.25, 10.25)] = 21.0   # the taller crown's flank towards the low tree
+    returns[rc(res, *low)] = 18.0
+    returns[rc(res, 12.75, 10.25)] = 16.0   # the low crown's own flank
+    # another empty position whose only return within reach is the flank of a higher return
+    # 1 m away (beyond reach)
+    returns[rc(res, 10.75, 14.25)] = 17.0
+    returns[rc(res, 11.25, 14.25)] = 19.0
+    returns[rc(res, 10.25, 16.25)] = 1.5    # a third empty position: a shrub return
+    chm[rc(res, 10.25, 16.25)] = 1.5
+    x, y = spec.xy(*np.array([rc(res, *tall)]).T)
+    kw = dict(top_x=x, top_y=y, min_height=2.0)
+    gx, gy = spec.xy(*np.array([rc(res, *low), rc(res, 10.25, 14.25), rc(res, 10.25, 16.25)]).T)
+    rows, cols = gap_tops(gx, gy, returns, chm, spec, (3.0, 2.0), **kw)
+    assert list(zip(rows, cols)) == [rc(res, *low)]
+    # the same apex 0.75 m from the detected top is too close to be another tree
+    rows, cols = gap_tops(gx, gy, returns, chm, spec, (3.0, 2.0), top_x=x + 1.25, top_y=y,
+                          min_height=2.0)
+    assert rows.size == 0
+
+
+def test_plantation_mode_looks_again_at_empty_positions(tmp_path, monkeypatch):
+    """4 pts/m²: the second look at the empty planting positions finds trees the tops finder
+    missed; measured against the stand's truth, recall, F and stocking all rise."""
+    from pyproj import CRS as PCRS
+
+    import lidartrees_gis.stocking as stocking_mod
+    from lidartrees_gis.io.lasout import write_points
+    from lidartrees_gis.pipeline import trees_file
+    from lidartrees_gis.synthetic import CRS, StandParams, make_stand
+
+    pts, truth = make_stand(StandParams(seed=3, density=4.0))
+    f = tmp_path / "stand.las"
+    write_points(f, pts.x, pts.y, pts.z, crs=PCRS.from_user_input(CRS),
+                 classification=pts.classification)
+    true_pct = 100 * len(truth["x"]) / (len(truth["x"]) + len(truth["_missing_x"]))
+
+    def run(name):
+        r = trees_file(f, tmp_path / f"{name}.gpkg", params=TreeParams(spacing="3x2"))
+        t = r["result"]["table"]
+        e = evaluate_trees(t["x"], t["y"], t["height"], truth["x"], truth["y"], truth["height"])
+        return r, e["all"]
+
+    r, e = run("with")
+    monkeypatch.setattr(stocking_mod, "gap_tops",
+                        lambda *a, **k: (np.empty(0, np.int64), np.empty(0, np.int64)))
+    r0, e0 = run("without")
+    assert r["result"]["gap_trees"] >= 10 and r0["result"]["gap_trees"] == 0
+    assert e["recall"] > e0["recall"] + 0.02 and e["f_score"] > e0["f_score"] + 0.005
+    assert abs(r["stocking_pct"] - true_pct) < abs(r0["stocking_pct"] - true_pct) - 2.0
+    summ = pyogrio.read_dataframe(tmp_path / "with.gpkg", layer="summary")
+    assert int(summ.gap_trees[0]) == r["result"]["gap_trees"] == r["gap_trees"]
+    assert int(summ.trees[0]) == r["trees"] and len(gpd.read_file(tmp_path / "with.gpkg",
+                                                                   layer="gaps")) == int(summ.missing_trees[0])
