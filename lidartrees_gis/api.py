@@ -75,7 +75,8 @@ def find_trees(input, *, params=None, res="auto", dtm="auto", chm="pitfree", fil
     p = params or TreeParams()
     arr, spec, _, built = load_chm(input, res=res, dtm=dtm, chm=chm, fill=fill,
                                    outliers=outliers, drop_class=drop_class, keep_class=keep_class,
-                                   a_srs=a_srs, t_srs=t_srs, progress=progress, **read_kw)
+                                   a_srs=a_srs, t_srs=t_srs, progress=progress,
+                                   returns=p.spacing is not None, **read_kw)
     result = detect_with_stocking(arr, spec, p, built.get("heights"), returns=built.get("returns"))
     frames = trees_frames(result, spec, "")
     summary = frames["summary"].iloc[0].to_dict()

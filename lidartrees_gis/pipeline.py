@@ -496,11 +496,13 @@ TABLE1 = (
 
 def load_chm(input, *, res="auto", dtm="auto", chm="pitfree", fill="mean8", outliers=True,
              drop_class=NOISE_CLASSES, keep_class=None, a_srs=None, t_srs=None, progress=None,
-             **read_kw):
+             returns=False, **read_kw):
     """A CHM from a GeoTIFF, or built from points (see :func:`chm_file` for the defaults).
 
     Returns ``(chm, spec, source, info)``; ``info`` says how a CHM was built from points
-    (resolution, DTM, CHM kind, dropped classes, outliers), empty for a GeoTIFF.
+    (resolution, DTM, CHM kind, dropped classes, outliers), empty for a GeoTIFF, and holds the
+    tree-height grid (``heights``) and, with ``returns=True`` (plantation mode), the highest
+    return above ground of each cell (``returns``).
     """
     if str(input).lower().endswith(RASTER_SUFFIXES):
         from .crs import parse_crs
@@ -514,7 +516,8 @@ def load_chm(input, *, res="auto", dtm="auto", chm="pitfree", fill="mean8", outl
     s = compute_surfaces(src, "auto" if res is None else res, dtm=dtm, fill=fill, chm=chm,
                          outliers=outliers, progress=progress)
     info = {"res": s["res"], "dtm": s["dtm_method"], "chm": chm, "points": s["points"],
-            "heights": s["heights"], "returns": s["returns"], **_filter_report(src, s), "repro": _repro_meta(src),
+            "heights": s["heights"], "returns": s["returns"] if returns else None,
+            **_filter_report(src, s), "repro": _repro_meta(src),
             "reprojection": _repro_report(src)}
     return s["chm"], s["spec"], str(input), info
 
@@ -757,7 +760,8 @@ def trees_file(input, output, *, res="auto", params=None, dtm="auto", chm="pitfr
     arr, spec, source, built = load_chm(input, res=res, dtm=dtm, chm=chm, fill=fill,
                                         outliers=outliers, drop_class=drop_class,
                                         keep_class=keep_class, a_srs=a_srs, t_srs=t_srs,
-                                        progress=SubProgress(prog, 0, 0.5), **read_kw)
+                                        progress=SubProgress(prog, 0, 0.5),
+                                        returns=p.spacing is not None, **read_kw)
     prog.update(0.5, "detecting trees")
     check_cancel(prog)
     result = detect_with_stocking(arr, spec, p, built.get("heights"), prog,
