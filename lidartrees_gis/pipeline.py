@@ -316,7 +316,7 @@ def compute_surfaces(src: PointSource, res, *, dtm="auto", fill="mean8", chm="ma
                                   coarse=np.where(out_cells, np.nan, chm_raw))
         chm_arr = fill_gaps(chm_arr, fill, mask=footprint)
         # tree heights: the highest return of a cell is above the TIN at its centre
-        heights = np.fmax(chm_arr, dsm_raw - dtm_arr)
+        heights = np.fmax(chm_arr, returns)
     prog.update(0.95, "canopy height")
     return {"dsm": dsm, "dtm": dtm_arr, "chm": chm_arr, "heights": heights, "returns": returns,
             "spec": spec, "res": res,
