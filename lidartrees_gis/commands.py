@@ -478,8 +478,8 @@ COMMANDS = {
          Param("window_factor", "float", "Adaptive window radius for a tree of the dominant "
                "height, in crown scales", flag="-window_factor", default=0.9, advanced=True),
          Param("min_separation", "float", "Adaptive window: smallest distance between two tops "
-               "(default 2.6 CHM cells, 1.3 m at 4 pts/m², at most 1.8 crown scales; 0 = no "
-               "limit)",
+               "(default 2.6 CHM cells, 1.3 m at 4 pts/m², at most 1.8 crown scales; with "
+               "-spacing at least 0.6 x the smaller spacing; 0 = no limit)",
                flag="-min_separation", advanced=True, unit="m"),
          Param("step", "float", "Region-growing threshold step (ajuste, Castro 2006, Annex 2)",
                flag="-step", default=0.1, advanced=True, unit="m"),

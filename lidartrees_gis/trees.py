@@ -25,6 +25,9 @@ SPACING_FACTOR = 0.3
 SEPARATION_CELLS = 2.6
 #: ... but at most this many crown scales (in-row trees of a 3 x 2 m stand are about 2.9 apart)
 SEPARATION_CROWNS = 1.8
+#: plantation mode (-spacing): at least this share of the smaller spacing (planted trees stand
+#: a spacing apart; closer tops are one tree or a fork)
+SEPARATION_PLANTED = 0.6
 
 
 def parse_spacing(value):
@@ -90,7 +93,8 @@ class TreeParams:
     min_separation : float, optional
         Adaptive window: smallest distance (m) between two tops; default ``SEPARATION_CELLS``
         cells (1.3 m at 0.5 m, the cell size of 4 pts/m²), at most ``SEPARATION_CROWNS`` crown
-        scales (sparser data, where more cells would join trees of one row). 0 = no limit.
+        scales (sparser data, where more cells would join trees of one row); in plantation mode at
+        least ``SEPARATION_PLANTED`` x the smaller spacing (1.2 m at 3 x 2 m). 0 = no limit.
     treex_centred : bool
         TreeX: also require a top to be the highest of the window centred on it (drops one of
         two close trees; off as in the seed).
@@ -193,6 +197,8 @@ def find_tops(chm_s, res, p: TreeParams, auto: dict | None = None):
         sep = p.min_separation
         if sep is None:
             sep = min(SEPARATION_CELLS * res, SEPARATION_CROWNS * auto["crown_scale"])
+            if p.spacing is not None:
+                sep = max(sep, SEPARATION_PLANTED * min(p.spacing))
         return adaptive_maxima(chm_s, res, crown_scale=auto["crown_scale"],
                                dominant_height=auto["dominant_height"], min_height=p.min_height,
                                factor=p.window_factor, min_separation=sep)
