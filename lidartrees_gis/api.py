@@ -77,7 +77,8 @@ def find_trees(input, *, params=None, res="auto", dtm="auto", chm="pitfree", fil
                                    outliers=outliers, drop_class=drop_class, keep_class=keep_class,
                                    a_srs=a_srs, t_srs=t_srs, progress=progress,
                                    returns=p.spacing is not None, **read_kw)
-    result = detect_with_stocking(arr, spec, p, built.get("heights"), returns=built.get("returns"))
+    result = detect_with_stocking(arr, spec, p, built.get("heights"), returns=built.get("returns"),
+                                  density=built.get("density"))
     frames = trees_frames(result, spec, "")
     summary = frames["summary"].iloc[0].to_dict()
     return frames["tree_tops"], frames["crowns"], summary

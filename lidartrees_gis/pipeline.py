@@ -14,7 +14,7 @@ import numpy as np
 
 from . import __version__
 from .crs import crs_label
-from .errors import InputError
+from .errors import DataWarning, InputError
 from .grid import (GridAccumulator, GridSpec, LowestPoints, auto_resolution, check_resolution,
                    check_sparse, data_footprint, fill_gaps, interpolate_tin, resample_to)
 from .io.points import PointSource, open_points
@@ -322,6 +322,8 @@ def compute_surfaces(src: PointSource, res, *, dtm="auto", fill="mean8", chm="ma
             "spec": spec, "res": res,
             "dtm_method": _dtm_label(method, kind), "chm_method": chm,
             "points": n, "outside": acc.outside, "dropped": dict(src.dropped),
+            # points per m² over the data footprint
+            "density": n / max(float(footprint.sum()) * spec.cell_area, 1e-9),
             "outlier_cells": int(out_cells.sum()), "outlier_points": out_points}
 
 
@@ -517,6 +519,7 @@ def load_chm(input, *, res="auto", dtm="auto", chm="pitfree", fill="mean8", outl
                          outliers=outliers, progress=progress)
     info = {"res": s["res"], "dtm": s["dtm_method"], "chm": chm, "points": s["points"],
             "heights": s["heights"], "returns": s["returns"] if returns else None,
+            "density": s["density"],
             **_filter_report(src, s), "repro": _repro_meta(src),
             "reprojection": _repro_report(src)}
     return s["chm"], s["spec"], str(input), info
@@ -699,14 +702,24 @@ def quicklook_title(summary: dict, source) -> str:
     return f"{name}\n" + " · ".join(p for p in parts if p)
 
 
-def detect_with_stocking(arr, spec, params, heights=None, progress=None, *, returns=None) -> dict:
+#: plantation mode warns below this point density (points/m² over the data footprint): planted
+#: trees lower than their in-row neighbours are often missed and the stocking is under-reported
+#: (measured on the synthetic 3 x 2 m stand: 93.0 % for a true 95.8 % at 4 pts/m², 81.8 % at
+#: 2 pts/m²); a delivery of 4 pts/m² measures 3.9-4.0
+PLANTATION_MIN_DENSITY = 3.5
+
+
+def detect_with_stocking(arr, spec, params, heights=None, progress=None, *, returns=None,
+                         density=None) -> dict:
     """:func:`lidartrees_gis.trees.detect_trees` on a CHM, plus the stocking of the fitted
     planting grid in plantation mode (``params.spacing``); the CHM is kept as ``result["chm"]``.
 
     In plantation mode, with ``returns`` (the highest return above ground of each cell, from
     points), the empty planting positions are searched once more for a tree the tops finder
     missed (:func:`lidartrees_gis.stocking.gap_tops`); the crowns are then grown again from all
-    tops and ``result["gap_trees"]`` says how many were added.
+    tops and ``result["gap_trees"]`` says how many were added. Below
+    :data:`PLANTATION_MIN_DENSITY` points per m² (``density``) a :class:`DataWarning` says
+    that the stocking is under-reported.
     """
     from .trees import detect_trees
 
@@ -717,6 +730,14 @@ def detect_with_stocking(arr, spec, params, heights=None, progress=None, *, retu
         from .stocking import gap_tops, stocking
 
         as_progress(progress).update(0.75, "planting grid")
+        if density is not None and density < PLANTATION_MIN_DENSITY:
+            import warnings
+
+            warnings.warn(DataWarning(
+                f"{density:.1f} points/m²: below {PLANTATION_MIN_DENSITY:g} points/m² planted "
+                "trees lower than their neighbours are often missed, so the stocking is "
+                "under-reported (a synthetic 3 x 2 m stand: 81.8 % found for a true 95.8 % at "
+                "2 points/m², 93.0 % at 4 points/m²)"), stacklevel=2)
         t = result["table"]
         st = stocking(t["x"], t["y"], arr, spec, params.spacing, min_height=params.min_height)
         added = 0
@@ -765,7 +786,7 @@ def trees_file(input, output, *, res="auto", params=None, dtm="auto", chm="pitfr
     prog.update(0.5, "detecting trees")
     check_cancel(prog)
     result = detect_with_stocking(arr, spec, p, built.get("heights"), prog,
-                                  returns=built.get("returns"))
+                                  returns=built.get("returns"), density=built.get("density"))
     t = result["table"]
     prog.update(0.8, "writing")
     frames = trees_frames(result, spec, nln)

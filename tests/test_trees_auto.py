@@ -438,3 +438,37 @@ def test_plantation_mode_looks_again_at_empty_positions(tmp_path, monkeypatch):
     assert int(summ.gap_trees[0]) == r["result"]["gap_trees"] == r["gap_trees"]
     assert int(summ.trees[0]) == r["trees"] and len(gpd.read_file(tmp_path / "with.gpkg",
                                                                    layer="gaps")) == int(summ.missing_trees[0])
+
+
+def test_plantation_mode_warns_that_sparse_data_under_report_stocking(tmp_path, capsys):
+    import warnings
+
+    from pyproj import CRS as PCRS
+
+    from lidartrees_gis.errors import DataWarning
+    from lidartrees_gis.io.lasout import write_points
+    from lidartrees_gis.pipeline import trees_file
+    from lidartrees_gis.synthetic import CRS, StandParams, make_stand
+
+    def data_warnings(f, **kw):
+        with warnings.catch_warnings(record=True) as got:
+            warnings.simplefilter("always")
+            trees_file(f, tmp_path / "t.gpkg", overwrite=True, **kw)
+        return [str(w.message) for w in got if issubclass(w.category, DataWarning)]
+
+    files = {}
+    for density in (2.0, 6.0):
+        pts, _ = make_stand(StandParams(seed=3, density=density))
+        files[density] = tmp_path / f"stand_{density:g}.las"
+        write_points(files[density], pts.x, pts.y, pts.z, crs=PCRS.from_user_input(CRS),
+                     classification=pts.classification)
+    sparse = data_warnings(files[2.0], params=TreeParams(spacing="3x2"))
+    assert len(sparse) == 1 and "under-reported" in sparse[0]
+    assert 1.7 <= float(sparse[0].split()[0]) <= 2.3  # the measured density
+    assert data_warnings(files[6.0], params=TreeParams(spacing="3x2")) == []
+    assert data_warnings(files[2.0]) == []  # no stocking without -spacing
+    # the CLI prints it as one line and still writes the layers
+    out = tmp_path / "cli.gpkg"
+    assert main(["trees", str(files[2.0]), str(out), "-spacing", "3x2", "-q"]) == 0
+    assert "lidartrees trees: warning:" in capsys.readouterr().err
+    assert {"gaps", "summary"} <= {n for n, _ in pyogrio.list_layers(out)}
