@@ -158,7 +158,10 @@ def run_cli(args, feedback):
         elif tag == "err":
             if line.strip():
                 last_err = line.strip()
-                feedback.pushConsoleInfo(line)
+                if ": warning: " in line:  # the CLI's DataWarning lines, shown as warnings
+                    feedback.pushWarning(line.strip())
+                else:
+                    feedback.pushConsoleInfo(line)
         else:
             feedback.pushConsoleInfo(line)
     rc = proc.wait()

@@ -291,6 +291,35 @@ def test_plantation_mode_loads_gaps_and_evaluate_runs(qgis_app, tmp_path, stand)
     assert r["all"]["f_score"] >= 0.97 and r["all"]["reference"] == len(truth["x"])
 
 
+def test_data_warnings_reach_the_feedback_as_warnings(qgis_app, tmp_path):
+    """Plantation mode on 2 pts/m²: the CLI's warning that the stocking is under-reported is a
+    warning in QGIS's log, not console noise."""
+    from pyproj import CRS
+    from qgis.core import QgsProcessingFeedback
+
+    from lidartrees_gis.io.lasout import write_points
+    from lidartrees_gis.synthetic import StandParams, make_stand
+
+    pts, _ = make_stand(StandParams(seed=3, density=2.0))
+    las = tmp_path / "sparse.las"
+    write_points(las, pts.x, pts.y, pts.z, crs=CRS.from_epsg(29194),
+                 classification=pts.classification)
+
+    class Recording(QgsProcessingFeedback):
+        def __init__(self):
+            super().__init__()
+            self.warnings = []
+
+        def pushWarning(self, text):  # noqa: N802
+            self.warnings.append(text)
+
+    fb = Recording()
+    res = run("trees", {"INPUT": str(las), "OUTPUT": str(tmp_path / "t.gpkg"), "SPACING": "3x2"},
+              fb)
+    assert res["TREES"] > 400
+    assert len(fb.warnings) == 1 and "under-reported" in fb.warnings[0]
+
+
 def test_ground_declares_a_las_output_and_takes_a_temporary_one(qgis_app, tmp_path, data):
     import laspy
     from qgis.core import QgsApplication, QgsProcessingParameterFileDestination
