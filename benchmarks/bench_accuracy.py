@@ -40,18 +40,21 @@ LIDR = {"mixedconifer_trees": 205, "neon_one_top_share": 0.41, "neon_outside_sha
 TARGETS = {"synthetic_f": 0.97, "mixedconifer_range": (0.75 * 205, 1.25 * 205),
            "neon_one_top_share_min": 0.45, "neon_outside_share_max": 0.35}
 
-#: configurations: defaults first, then tuned / seed ones (keyword arguments of trees_file)
+#: configurations: defaults first, then tuned / seed ones (keyword arguments of trees_file); the
+#: others without the planting-lattice look (-planting none), so that each measures its own tops
 CONFIGS = {
     "defaults": {},
     "plantation mode (-spacing 3x2)": {"params": TreeParams(spacing="3x2")},
     "before issue 9 (-chm max -tr 0.5 -smooth none -tops lm)":
-        {"chm": "max", "res": 0.5, "params": TreeParams(smooth="none", tops="lm")},
+        {"chm": "max", "res": 0.5, "params": TreeParams(smooth="none", tops="lm", planting="none")},
     "seed 000 rg + gauss5 (-chm max -tr 0.5)":
-        {"chm": "max", "res": 0.5, "params": TreeParams(smooth="gauss5", tops="lm")},
-    "pitfree + gauss3 + lm": {"params": TreeParams(smooth="gauss3", tops="lm")},
+        {"chm": "max", "res": 0.5, "params": TreeParams(smooth="gauss5", tops="lm", planting="none")},
+    "pitfree + gauss3 + lm": {"params": TreeParams(smooth="gauss3", tops="lm", planting="none")},
     "height-only window (-tops vwf: 0.1 h + 0.5 m, lidR-style)":
-        {"params": TreeParams(smooth="none", tops="vwf")},
-    "TreeX (-method treex)": {"params": TreeParams(method="treex")},
+        {"params": TreeParams(smooth="none", tops="vwf", planting="none")},
+    "TreeX (-method treex)": {"params": TreeParams(method="treex", planting="none")},
+    "defaults without the planting-lattice look (-planting none)":
+        {"params": TreeParams(planting="none")},
 }
 
 

@@ -220,9 +220,9 @@ def _tree_params(kw):
 
     names = ("method", "smooth", "min_height", "step", "tops", "mean_crown_area", "sd_crown_area",
              "max_crown_area", "min_crown_height", "connectivity", "spacing", "crown_scale",
-             "window_factor", "treex_centred", "min_separation")
+             "window_factor", "treex_centred", "min_separation", "planting")
     conv = {"connectivity": int, "treex_centred": bool}
-    text = ("method", "smooth", "tops", "spacing")
+    text = ("method", "smooth", "tops", "spacing", "planting")
     vals = {}
     for n in names:
         v = kw.get(n)
@@ -481,6 +481,10 @@ COMMANDS = {
                "(default 2.6 CHM cells, 1.3 m at 4 pts/m², at most 1.8 crown scales; with "
                "-spacing at least 0.6 x the smaller spacing; 0 = no limit)",
                flag="-min_separation", advanced=True, unit="m"),
+         Param("planting", "choice", "Without -spacing: auto = when the tops lie on a planting "
+               "lattice (at least 100 trees, lattice fit >= 0.25), look again at its empty "
+               "positions for trees the tops finder missed (one-file runs); none = off",
+               flag="-planting", choices=("auto", "none"), default="auto", advanced=True),
          Param("step", "float", "Region-growing threshold step (ajuste, Castro 2006, Annex 2)",
                flag="-step", default=0.1, advanced=True, unit="m"),
          Param("mean_crown_area", "float", "TreeX window: mean crown area", flag="-mean_crown_area",

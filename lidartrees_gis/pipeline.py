@@ -561,6 +561,10 @@ def trees_frames(result: dict, spec: GridSpec, nln: str = ""):
         "tops": result.get("tops", p.tops), "res": spec.res,
         "crown_scale": auto.get("crown_scale", np.nan),
         "dominant_height": auto.get("dominant_height", np.nan),
+        # trees found by the second look at the empty planting positions (gap_tops), and the
+        # spacings of the lattice found under the tops without -spacing
+        "gap_trees": int(result.get("gap_trees", 0)),
+        "planting_detected": result.get("planting_detected", ""),
     }
     layers = {}
     st = result.get("stocking")
@@ -570,9 +574,7 @@ def trees_frames(result: dict, spec: GridSpec, nln: str = ""):
                     "planting_positions": st["expected"], "stocked_positions": st["stocked"],
                     "missing_trees": st["missing"], "extra_tops": st["extra"],
                     "stocking_pct": st["stocking_pct"], "planted_per_ha": st["planted_per_ha"],
-                    "planted_area_ha": st["planted_area_ha"],
-                    # trees found by the second look at the empty positions (gap_tops)
-                    "gap_trees": int(result.get("gap_trees", 0))})
+                    "planted_area_ha": st["planted_area_ha"]})
         gaps = gpd.GeoDataFrame(
             {"gap_id": np.arange(1, st["missing"] + 1, dtype=np.int64),
              "row_index": st["gaps_j"], "position_in_row": st["gaps_i"],
@@ -719,18 +721,31 @@ def detect_with_stocking(arr, spec, params, heights=None, progress=None, *, retu
     missed (:func:`lidartrees_gis.stocking.gap_tops`); the crowns are then grown again from all
     tops and ``result["gap_trees"]`` says how many were added. Below
     :data:`PLANTATION_MIN_DENSITY` points per m² (``density``) a :class:`DataWarning` says
-    that the stocking is under-reported.
+    that the stocking is under-reported. Without a spacing (``params.planting="auto"``), when
+    the tops lie on a planting lattice (:func:`lidartrees_gis.stocking.detect_planting`;
+    ``result["planting_detected"]`` gives its spacings), its empty positions get the same
+    second look, without a stocking report.
     """
     from .trees import detect_trees
 
     result = detect_trees(arr, spec, params, heights=heights)
     check_cancel(progress)
     result["chm"] = arr
-    if params.spacing is not None:
+    result["gap_trees"] = 0
+    spacing, given = params.spacing, params.spacing is not None
+    if not given and params.planting == "auto" and returns is not None:
+        from .stocking import detect_planting
+
+        t = result["table"]
+        g = detect_planting(t["x"], t["y"])
+        if g is not None:
+            spacing = (g.row_spacing, g.tree_spacing)
+            result["planting_detected"] = f"{g.row_spacing:.2f}x{g.tree_spacing:.2f}"
+    if spacing is not None:
         from .stocking import gap_tops, stocking
 
         as_progress(progress).update(0.75, "planting grid")
-        if density is not None and density < PLANTATION_MIN_DENSITY:
+        if given and density is not None and density < PLANTATION_MIN_DENSITY:
             import warnings
 
             warnings.warn(DataWarning(
@@ -739,23 +754,26 @@ def detect_with_stocking(arr, spec, params, heights=None, progress=None, *, retu
                 "under-reported (a synthetic 3 x 2 m stand: 81.8 % found for a true 95.8 % at "
                 "2 points/m², 93.0 % at 4 points/m²)"), stacklevel=2)
         t = result["table"]
-        st = stocking(t["x"], t["y"], arr, spec, params.spacing, min_height=params.min_height)
-        added = 0
+        st = stocking(t["x"], t["y"], arr, spec, spacing, min_height=params.min_height)
         if returns is not None and st["missing"]:
             rows, cols = gap_tops(st["gaps_x"], st["gaps_y"], returns, result["smoothed"], spec,
-                                  params.spacing, top_x=t["x"], top_y=t["y"],
+                                  spacing, top_x=t["x"], top_y=t["y"],
                                   min_height=params.min_height)
-            added = int(rows.size)
-            if added:
+            if rows.size:
                 check_cancel(progress)
+                detected = result.get("planting_detected")
                 result = detect_trees(arr, spec, params, heights=heights,
                                       tops=(np.r_[t["row"], rows], np.r_[t["col"], cols]))
                 result["chm"] = arr
+                result["gap_trees"] = int(rows.size)
+                if detected:
+                    result["planting_detected"] = detected
                 t = result["table"]
-                st = stocking(t["x"], t["y"], arr, spec, params.spacing,
-                              min_height=params.min_height)
-        result["stocking"] = st
-        result["gap_trees"] = added
+                if given:
+                    st = stocking(t["x"], t["y"], arr, spec, spacing,
+                                  min_height=params.min_height)
+        if given:  # the stocking report (gaps layer) is for plantation mode only
+            result["stocking"] = st
     return result
 
 
@@ -782,7 +800,8 @@ def trees_file(input, output, *, res="auto", params=None, dtm="auto", chm="pitfr
                                         outliers=outliers, drop_class=drop_class,
                                         keep_class=keep_class, a_srs=a_srs, t_srs=t_srs,
                                         progress=SubProgress(prog, 0, 0.5),
-                                        returns=p.spacing is not None, **read_kw)
+                                        returns=p.spacing is not None or p.planting == "auto",
+                                        **read_kw)
     prog.update(0.5, "detecting trees")
     check_cancel(prog)
     result = detect_with_stocking(arr, spec, p, built.get("heights"), prog,
@@ -826,10 +845,11 @@ def trees_file(input, output, *, res="auto", params=None, dtm="auto", chm="pitfr
            "mean_crown_diameter": _round(srow["mean_crown_diameter"], 2),
            "trees_per_ha": _round(srow["trees_per_ha"], 1),
            "dropped_classes": built.get("dropped_classes"), "outlier_points": built.get("outlier_points"),
-           "reprojection": built.get("reprojection"), "result": result, "spec": spec}
+           "reprojection": built.get("reprojection"), "result": result, "spec": spec,
+           "gap_trees": int(srow["gap_trees"]), "planting_detected": srow["planting_detected"] or None}
     if "stocking_pct" in srow:
         out.update({k: srow[k] for k in ("spacing", "row_azimuth", "planting_positions",
-                                         "missing_trees", "gap_trees")})
+                                         "missing_trees")})
         out["stocking_pct"] = _round(srow["stocking_pct"], 2)
     return out
 

@@ -98,6 +98,11 @@ class TreeParams:
     treex_centred : bool
         TreeX: also require a top to be the highest of the window centred on it (drops one of
         two close trees; off as in the seed).
+    planting : {"auto", "none"}
+        Without ``spacing``: ``auto`` looks for a planting lattice under the tops
+        (:func:`lidartrees_gis.stocking.detect_planting`) and, when there is one, looks again
+        at its empty positions for trees the tops finder missed (single-file runs); ``none``
+        does not.
     """
 
     method: str = "rg"
@@ -116,6 +121,7 @@ class TreeParams:
     treex_centred: bool = False
     dominant_height: float | None = None
     min_separation: float | None = None
+    planting: str = "auto"
 
     def __post_init__(self):
         if self.method not in METHODS:
@@ -135,6 +141,8 @@ class TreeParams:
         if self.min_separation is not None and not (np.isfinite(self.min_separation)
                                                     and self.min_separation >= 0):
             raise InputError(f"-min_separation must be >= 0 (m), got {self.min_separation}")
+        if self.planting not in ("auto", "none"):
+            raise InputError(f"-planting: expected auto or none, got {self.planting!r}")
         if not (np.isfinite(self.step) and self.step > 0):
             raise InputError(f"-step must be > 0 (m), got {self.step}")
 

@@ -194,6 +194,7 @@ LABELS = {
     "treex_centred": "TreeX: also highest of the centred window", "w_growth": "w growth per level",
     "window_factor": "Window factor", "workers": "Workers",
     "min_separation": "Smallest distance between tops",
+    "planting": "Planting lattice under the tops (without spacing)",
 }
 
 

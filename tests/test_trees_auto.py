@@ -472,3 +472,57 @@ def test_plantation_mode_warns_that_sparse_data_under_report_stocking(tmp_path, 
     assert main(["trees", str(files[2.0]), str(out), "-spacing", "3x2", "-q"]) == 0
     assert "lidartrees trees: warning:" in capsys.readouterr().err
     assert {"gaps", "summary"} <= {n for n, _ in pyogrio.list_layers(out)}
+
+
+def test_detect_planting_finds_the_lattice_of_a_stand_and_none_in_random_trees(stand):
+    from lidartrees_gis.stocking import detect_planting
+
+    _, truth = stand
+    g = detect_planting(truth["x"], truth["y"])
+    assert g is not None and g.fit > 0.9
+    assert g.row_spacing == pytest.approx(3.0, rel=0.01) and g.tree_spacing == pytest.approx(2.0, rel=0.01)
+    assert min(g.azimuth, 180 - g.azimuth) < 1.0  # the stand's rows run north-south
+    rng = np.random.default_rng(2)
+    x, y = rng.uniform(0, 100, 600), rng.uniform(0, 60, 600)
+    assert detect_planting(x, y) is None
+    # a real lattice, but too few trees to tell
+    assert detect_planting(truth["x"][:80], truth["y"][:80]) is None
+
+
+def test_defaults_look_again_at_the_empty_positions_of_a_detected_lattice(tmp_path, data):
+    """Without -spacing: the 4 pts/m² stand's tops lie on a 3 x 2 m lattice, so its empty
+    positions get the second look (F >= 0.97 against the truth, no stocking report);
+    MixedConifer's do not, and its trees are the same as with -planting none."""
+    from pyproj import CRS as PCRS
+
+    from lidartrees_gis.io.lasout import write_points
+    from lidartrees_gis.pipeline import trees_file
+    from lidartrees_gis.synthetic import CRS, StandParams, make_stand
+
+    pts, truth = make_stand(StandParams(seed=3, density=4.0))
+    f = tmp_path / "stand.las"
+    write_points(f, pts.x, pts.y, pts.z, crs=PCRS.from_user_input(CRS),
+                 classification=pts.classification)
+
+    def run(path, **kw):
+        return trees_file(path, tmp_path / "t.gpkg", overwrite=True, params=TreeParams(**kw))
+
+    def f_score(r):
+        t = r["result"]["table"]
+        return evaluate_trees(t["x"], t["y"], t["height"], truth["x"], truth["y"],
+                              truth["height"])["all"]
+
+    auto, off = run(f), run(f, planting="none")
+    assert auto["planting_detected"] == "3.00x2.00" and auto["gap_trees"] >= 10
+    assert off["planting_detected"] is None and off["gap_trees"] == 0
+    assert f_score(auto)["f_score"] >= 0.97 > f_score(off)["f_score"]
+    assert f_score(auto)["precision"] >= 0.99
+    layers = {n for n, _ in pyogrio.list_layers(tmp_path / "t.gpkg")}
+    assert "gaps" not in layers and "stocking_pct" not in auto
+    mc = data("lidR_extdata/MixedConifer.laz")
+    a, b = run(mc), run(mc, planting="none")
+    assert a["planting_detected"] is None and a["gap_trees"] == 0
+    np.testing.assert_array_equal(np.sort(a["result"]["table"]["tree_id"]),
+                                  np.sort(b["result"]["table"]["tree_id"]))
+    with pytest.raises(Exception, match="-planting"):
+        TreeParams(planting="yes")
