@@ -64,13 +64,27 @@ def _concentration(p, period):
     return np.abs(z), np.angle(z)
 
 
+#: the planting grid is fitted on at most this many tops (a fixed sample of larger stands: the
+#: lattice is the same, and the fit's memory and time stay bounded)
+FIT_MAX_TREES = 20_000
+
+
+def _sample(x, y, n: int = FIT_MAX_TREES):
+    """At most ``n`` of the positions, the same ones on every run."""
+    if x.size <= n:
+        return x, y
+    k = np.sort(np.random.default_rng(0).choice(x.size, n, replace=False))
+    return x[k], y[k]
+
+
 def fit_planting_grid(x, y, row_spacing: float, tree_spacing: float) -> PlantingGrid:
     """Row direction and lattice offset that best fit the tree positions ``x, y``.
 
     Every azimuth from 0 to 180° (0.5° steps, then 0.05° around the best) is scored by the
     product of the mean resultant lengths of the positions across the rows modulo
     ``row_spacing`` and along the rows modulo ``tree_spacing``; the phases of the best azimuth
-    give the offset.
+    give the offset. Stands of more than :data:`FIT_MAX_TREES` tops are fitted on a fixed sample
+    of them.
 
     Parameters
     ----------
@@ -86,16 +100,22 @@ def fit_planting_grid(x, y, row_spacing: float, tree_spacing: float) -> Planting
                          "(at least 10)")
     if not (row_spacing > 0 and tree_spacing > 0):
         raise InputError("-spacing: spacings must be > 0")
+    x, y = _sample(x, y)
     x0, y0 = float(np.mean(x)), float(np.mean(y))
     dx, dy = x - x0, y - y0
 
     def score(az_deg):
-        a = np.radians(np.atleast_1d(az_deg))[:, None]
-        pu = dx[None, :] * np.sin(a) + dy[None, :] * np.cos(a)
-        pv = dx[None, :] * np.cos(a) - dy[None, :] * np.sin(a)
-        ru, phu = _concentration(pu, tree_spacing)
-        rv, phv = _concentration(pv, row_spacing)
-        return ru * rv, phu, phv
+        # angles in blocks: an (angles x trees) array of a large stand would not fit in memory
+        out = [[], [], []]
+        for a in np.array_split(np.radians(np.atleast_1d(az_deg)), max(1, len(az_deg) // 24)):
+            a = a[:, None]
+            pu = dx[None, :] * np.sin(a) + dy[None, :] * np.cos(a)
+            pv = dx[None, :] * np.cos(a) - dy[None, :] * np.sin(a)
+            ru, phu = _concentration(pu, tree_spacing)
+            rv, phv = _concentration(pv, row_spacing)
+            for o, v in zip(out, (ru * rv, phu, phv)):
+                o.append(v)
+        return tuple(np.concatenate(o) for o in out)
 
     coarse = np.arange(0.0, 180.0, 0.5)
     s, _, _ = score(coarse)
@@ -293,9 +313,10 @@ def detect_planting(x, y, *, min_trees: int = PLANTING_MIN_TREES,
     """
     from scipy.spatial import cKDTree
 
-    xy = np.c_[np.asarray(x, float), np.asarray(y, float)]
-    if len(xy) < max(min_trees, 10):
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    if x.size < max(min_trees, 10):
         return None
+    xy = np.column_stack([x, y])
     d, k = cKDTree(xy).query(xy, k=7)
     v = xy[k[:, 1:]] - xy[:, None, :]
     ang = np.degrees(np.arctan2(v[..., 0], v[..., 1])) % 180.0
@@ -309,8 +330,9 @@ def detect_planting(x, y, *, min_trees: int = PLANTING_MIN_TREES,
     if not (np.isfinite(along).any() and np.isfinite(across).any()):
         return None
     a = np.radians(a0)
-    dx, dy = xy[:, 0] - xy[:, 0].mean(), xy[:, 1] - xy[:, 1].mean()
+    sx, sy = _sample(x, y)  # the periods on a fixed sample of large stands (memory)
+    dx, dy = sx - sx.mean(), sy - sy.mean()
     tree = _spacing_along(dx * np.sin(a) + dy * np.cos(a), float(np.median(along[np.isfinite(along)])))
     row = _spacing_along(dx * np.cos(a) - dy * np.sin(a), float(np.median(across[np.isfinite(across)])))
-    g = fit_planting_grid(xy[:, 0], xy[:, 1], row, tree)
+    g = fit_planting_grid(x, y, row, tree)
     return g if g.fit >= min_fit else None

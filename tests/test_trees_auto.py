@@ -526,3 +526,25 @@ def test_defaults_look_again_at_the_empty_positions_of_a_detected_lattice(tmp_pa
                                   np.sort(b["result"]["table"]["tree_id"]))
     with pytest.raises(Exception, match="-planting"):
         TreeParams(planting="yes")
+
+
+def test_planting_grid_of_a_large_stand_is_fitted_on_a_sample():
+    """62,500 trees: the grid is fitted on a fixed sample (bounded memory: the full angle x tree
+    arrays would take several GB) and still lies on the stems; the lattice is found too."""
+    from lidartrees_gis.stocking import FIT_MAX_TREES, detect_planting
+
+    rng = np.random.default_rng(4)
+    i, j = np.meshgrid(np.arange(250), np.arange(250))
+    a = np.radians(30.0)
+    u, v = np.array([np.sin(a), np.cos(a)]), np.array([np.cos(a), -np.sin(a)])
+    x = 500000 + 2.0 * i.ravel() * u[0] + 3.0 * j.ravel() * v[0] + rng.normal(0, 0.1, i.size)
+    y = 7000000 + 2.0 * i.ravel() * u[1] + 3.0 * j.ravel() * v[1] + rng.normal(0, 0.1, i.size)
+    assert x.size > 3 * FIT_MAX_TREES
+    g = fit_planting_grid(x, y, 3.0, 2.0)
+    assert abs(g.azimuth - 30.0) < 0.1
+    fi, fj = g.to_lattice(x, y)
+    off = np.hypot((fi - np.round(fi)) * 2.0, (fj - np.round(fj)) * 3.0)
+    assert np.median(off) < 0.2
+    d = detect_planting(x, y)
+    assert d is not None and d.row_spacing == pytest.approx(3.0, rel=0.01)
+    assert d.tree_spacing == pytest.approx(2.0, rel=0.01)
