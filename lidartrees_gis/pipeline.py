@@ -731,8 +731,7 @@ def detect_with_stocking(arr, spec, params, heights=None, progress=None, *, retu
     result = detect_trees(arr, spec, params, heights=heights)
     check_cancel(progress)
     result["chm"] = arr
-    result["gap_trees"] = 0
-    spacing, given = params.spacing, params.spacing is not None
+    spacing, given, added, detected = params.spacing, params.spacing is not None, 0, None
     if not given and params.planting == "auto" and returns is not None:
         from .stocking import detect_planting
 
@@ -740,7 +739,7 @@ def detect_with_stocking(arr, spec, params, heights=None, progress=None, *, retu
         g = detect_planting(t["x"], t["y"])
         if g is not None:
             spacing = (g.row_spacing, g.tree_spacing)
-            result["planting_detected"] = f"{g.row_spacing:.2f}x{g.tree_spacing:.2f}"
+            detected = f"{g.row_spacing:.2f}x{g.tree_spacing:.2f}"
     if spacing is not None:
         from .stocking import gap_tops, stocking
 
@@ -759,21 +758,21 @@ def detect_with_stocking(arr, spec, params, heights=None, progress=None, *, retu
             rows, cols = gap_tops(st["gaps_x"], st["gaps_y"], returns, result["smoothed"], spec,
                                   spacing, top_x=t["x"], top_y=t["y"],
                                   min_height=params.min_height)
-            if rows.size:
+            added = int(rows.size)
+            if added:
                 check_cancel(progress)
-                detected = result.get("planting_detected")
                 result = detect_trees(arr, spec, params, heights=heights,
                                       tops=(np.r_[t["row"], rows], np.r_[t["col"], cols]))
                 result["chm"] = arr
-                result["gap_trees"] = int(rows.size)
-                if detected:
-                    result["planting_detected"] = detected
                 t = result["table"]
                 if given:
                     st = stocking(t["x"], t["y"], arr, spec, spacing,
                                   min_height=params.min_height)
         if given:  # the stocking report (gaps layer) is for plantation mode only
             result["stocking"] = st
+    result["gap_trees"] = added
+    if detected:
+        result["planting_detected"] = detected
     return result
 
 
