@@ -10,6 +10,8 @@ Datasets
 * neon_teak_dev: share of the 295 hand-drawn crown boxes holding exactly one top, and share of
   tops outside every box (lidR, as measured by the issue's author: 41 % / 41 %);
 * lasR_bcts tiles: trees and trees per ha, for the record.
+* with the defaults also: a density sweep (2-12 pts/m², two seeds) and the seed 11 stand with
+  its rows turned 0, 20 and 45° from the grid axes (4 and 25 pts/m²; at 4 also with -tr 0.4).
 
 Usage: python benchmarks/bench_accuracy.py [--out benchmarks/results/accuracy.json] [--quick]
 """
@@ -30,6 +32,7 @@ sys.path.insert(0, str(ROOT))
 DATA = ROOT.parent / "shared" / "data"
 
 from lidartrees_gis.evaluate import evaluate_trees  # noqa: E402
+from lidartrees_gis.io.points import PointChunk  # noqa: E402
 from lidartrees_gis.pipeline import trees_file  # noqa: E402
 from lidartrees_gis.synthetic import CRS, StandParams, make_stand, write_xyz_seed_dialect  # noqa: E402
 from lidartrees_gis.trees import TreeParams  # noqa: E402
@@ -120,6 +123,37 @@ def density_sweep(tmp: Path) -> dict:
             out[f"{dens:g} pts/m², seed {seed}"] = {
                 "res": r["res"], "f_score": round(e["all"]["f_score"], 4),
                 "recall": round(e["all"]["recall"], 4), "precision": round(e["all"]["precision"], 4)}
+    return out
+
+
+def orientation(tmp: Path) -> dict:
+    """Defaults on the 3 x 2 m stand (seed 11) with its rows turned 0, 20 and 45° from the grid
+    axes, at 4 and 25 pts/m², and at 4 pts/m² with 0.4 m cells (-tr 0.4): real plantations
+    are planted at any azimuth, the other synthetic stands run north-south."""
+    out = {}
+    for dens in (4.0, 25.0):
+        pts, truth = make_stand(StandParams(seed=11, density=dens))
+        cx, cy = float(np.mean(truth["x"])), float(np.mean(truth["y"]))
+        for deg in (0.0, 20.0, 45.0):
+            a = np.radians(deg)
+
+            def turn(x, y):
+                return (cx + (x - cx) * np.cos(a) - (y - cy) * np.sin(a),
+                        cy + (x - cx) * np.sin(a) + (y - cy) * np.cos(a))
+
+            px, py = turn(pts.x, pts.y)
+            tx, ty = turn(truth["x"], truth["y"])
+            f = tmp / f"turned_{dens:g}_{deg:g}.las"
+            write_las(f, PointChunk(px, py, pts.z, classification=pts.classification))
+            for res in (("auto", 0.4) if dens == 4.0 else ("auto",)):
+                r = run(f, tmp / "o.gpkg", res=res)
+                t = r["result"]["table"]
+                e = evaluate_trees(t["x"], t["y"], t["height"], tx, ty, truth["height"])["all"]
+                key = f"{dens:g} pts/m², rows at {deg:g}°" + ("" if res == "auto" else f", -tr {res:g}")
+                out[key] = {"res": r["res"], "f_score": round(e["f_score"], 4),
+                            "recall": round(e["recall"], 4), "precision": round(e["precision"], 4),
+                            "planting_detected": r.get("planting_detected"),
+                            "gap_trees": r.get("gap_trees")}
     return out
 
 
@@ -229,6 +263,7 @@ def main():
             if name == "defaults" and not a.quick:
                 c["bcts"] = bcts(tmp, cfg)
                 c["synthetic_density_sweep"] = density_sweep(tmp)
+                c["synthetic_orientation"] = orientation(tmp)
             res["configurations"][name] = c
             syn = "  ".join(f"F={v['all']['f_score']:.3f}" for v in c["synthetic"].values())
             print(f"   synthetic {syn} | MixedConifer {c['mixedconifer'].get('trees')} trees | NEON "
