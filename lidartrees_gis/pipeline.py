@@ -162,6 +162,10 @@ def _bilinear(arr, spec: GridSpec, x, y):
     return ndimage.map_coordinates(np.asarray(arr, np.float64), [row, col], order=1, mode="nearest")
 
 
+#: cell (m) of the data footprint over which a single file's -tr auto density is checked
+FOOTPRINT_CELL = 3.0
+
+
 def compute_surfaces(src: PointSource, res, *, dtm="auto", fill="mean8", chm="max",
                      outliers=True, res_rule="chm", max_edge=None, progress=None) -> dict:
     """DSM, DTM and CHM on one aligned grid.
@@ -171,7 +175,10 @@ def compute_surfaces(src: PointSource, res, *, dtm="auto", fill="mean8", chm="ma
     src : PointSource
         Points (its class filter, e.g. noise classes 7 and 18 dropped, applies).
     res : float or "auto"
-        Cell size in metres; ``auto`` by ``res_rule`` (see :func:`resolve_resolution`).
+        Cell size in metres; ``auto`` by ``res_rule`` (see :func:`resolve_resolution`). With
+        the CHM rule the density is then checked over the :data:`FOOTPRINT_CELL` cells that hold
+        points, and the points are read again at finer cells when it calls for them (an
+        outline that does not fill its bounding box).
     dtm : str
         ``auto`` (default) ``ground`` when the file has class-2 points, else ``lowest:5``;
         ``ground`` lowest class-2 point per cell, linearly interpolated (TIN) over the grid;
@@ -203,8 +210,13 @@ def compute_surfaces(src: PointSource, res, *, dtm="auto", fill="mean8", chm="ma
     if chm not in CHM_KINDS:
         raise InputError(f"-chm: unknown CHM {chm!r}; use {', '.join(CHM_KINDS)}")
     method = DtmMethod.parse(dtm)
+    auto_res = res_rule == "chm" and isinstance(res, str) and res.strip().lower() == "auto"
     res = resolve_resolution(src, res, SubProgress(prog, 0.0, 0.3), rule=res_rule)
     spec = grid_spec_for(src, res, SubProgress(prog, 0.0, 0.3))
+    # the 5 m cells holding points: the density of an outline that does not fill its bounding
+    # box (a turned or clipped stand) is measured over them (see below)
+    occ_spec = GridSpec.from_bounds(*spec.bounds, FOOTPRINT_CELL, crs=spec.crs) if auto_res else None
+    occ = np.zeros(occ_spec.shape, bool) if auto_res else None
     stats = ("max", "min") if method.kind == "min" else ("max",)
     acc = GridAccumulator(spec, stats)
     # the lowest ground (class 2) return of each cell, at its own position (a TIN through cell
@@ -221,6 +233,10 @@ def compute_surfaces(src: PointSource, res, *, dtm="auto", fill="mean8", chm="ma
     for chunk in src.chunks(SubProgress(prog, 0.3, 0.8)):
         n += len(chunk)
         acc.add(chunk.x, chunk.y, chunk.z)
+        if occ is not None:
+            r, c = occ_spec.cell_index(chunk.x, chunk.y)
+            ok = (r >= 0) & (r < occ.shape[0]) & (c >= 0) & (c < occ.shape[1])
+            occ[r[ok], c[ok]] = True
         if gacc is not None and chunk.classification is not None:
             g = chunk.classification == 2
             if g.any():
@@ -235,6 +251,16 @@ def compute_surfaces(src: PointSource, res, *, dtm="auto", fill="mean8", chm="ma
         raise InputError(f"{src.path}: no points" + (
             f" left after dropping classes {sorted(src.dropped)}" if src.dropped else ""))
     check_cancel(prog)
+    if occ is not None:
+        from .chm import chm_resolution
+
+        # -tr auto took the density over the bounding box; over the cells holding points it can
+        # call for finer cells (a stand turned 45° fills half its box): read again at those
+        fine = chm_resolution(n, float(occ.sum()) * occ_spec.cell_area)
+        if fine < res - 1e-9:
+            del acc, gacc, lacc, kept
+            return compute_surfaces(src, fine, dtm=dtm, fill=fill, chm=chm, outliers=outliers,
+                                    res_rule=res_rule, max_edge=max_edge, progress=progress)
     dsm_raw = acc.result("max")
     # the data footprint: cells within 2 m (or 3 point spacings) of a cell with points
     footprint = data_footprint(np.isfinite(dsm_raw), spec.res,

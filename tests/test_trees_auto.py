@@ -548,3 +548,38 @@ def test_planting_grid_of_a_large_stand_is_fitted_on_a_sample():
     d = detect_planting(x, y)
     assert d is not None and d.row_spacing == pytest.approx(3.0, rel=0.01)
     assert d.tree_spacing == pytest.approx(2.0, rel=0.01)
+
+
+def test_auto_cell_size_follows_the_data_not_the_bounding_box(tmp_path):
+    """A 4 pts/m² stand turned 45° fills half its bounding box: the density over the box
+    (2 pts/m²) would give 0.7 m cells; over the 3 m cells holding points it is about 4 pts/m²
+    again, so the cells stay near the unturned stand's 0.5 m and the trees are found (F against
+    the truth)."""
+    from pyproj import CRS as PCRS
+
+    from lidartrees_gis.chm import chm_resolution
+    from lidartrees_gis.io.lasout import write_points
+    from lidartrees_gis.pipeline import load_chm
+    from lidartrees_gis.synthetic import CRS, StandParams, make_stand
+
+    pts, truth = make_stand(StandParams(seed=11, density=4.0))
+    cx, cy = truth["x"].mean(), truth["y"].mean()
+    a = np.radians(45.0)
+
+    def turn(x, y):
+        return (cx + (x - cx) * np.cos(a) - (y - cy) * np.sin(a),
+                cy + (x - cx) * np.sin(a) + (y - cy) * np.cos(a))
+
+    files = {}
+    for name, (x, y) in (("straight", (pts.x, pts.y)), ("turned", turn(pts.x, pts.y))):
+        files[name] = tmp_path / f"{name}.las"
+        write_points(files[name], x, y, pts.z, crs=PCRS.from_user_input(CRS),
+                     classification=pts.classification)
+    bbox = (np.ptp(turn(pts.x, pts.y)[0]) * np.ptp(turn(pts.x, pts.y)[1]))
+    assert chm_resolution(len(pts.x), bbox) == 0.7  # what the box alone would give
+    arr, spec, _, info = load_chm(files["turned"])
+    assert spec.res <= 0.55 and load_chm(files["straight"])[1].res == 0.5
+    tx, ty = turn(truth["x"], truth["y"])
+    t = detect_trees(arr, spec, TreeParams(), heights=info["heights"])["table"]
+    e = evaluate_trees(t["x"], t["y"], t["height"], tx, ty, truth["height"])["all"]
+    assert e["f_score"] > 0.95
