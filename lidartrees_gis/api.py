@@ -76,8 +76,7 @@ def find_trees(input, *, params=None, res="auto", dtm="auto", chm="pitfree", fil
     arr, spec, _, built = load_chm(input, res=res, dtm=dtm, chm=chm, fill=fill,
                                    outliers=outliers, drop_class=drop_class, keep_class=keep_class,
                                    a_srs=a_srs, t_srs=t_srs, progress=progress,
-                                   returns=p.spacing is not None or p.planting == "auto",
-                                   **read_kw)
+                                   returns=p.looks_at_planting, **read_kw)
     result = detect_with_stocking(arr, spec, p, built.get("heights"), returns=built.get("returns"),
                                   density=built.get("density"))
     frames = trees_frames(result, spec, "")

@@ -213,10 +213,10 @@ def compute_surfaces(src: PointSource, res, *, dtm="auto", fill="mean8", chm="ma
     auto_res = res_rule == "chm" and isinstance(res, str) and res.strip().lower() == "auto"
     res = resolve_resolution(src, res, SubProgress(prog, 0.0, 0.3), rule=res_rule)
     spec = grid_spec_for(src, res, SubProgress(prog, 0.0, 0.3))
-    # the 5 m cells holding points: the density of an outline that does not fill its bounding
-    # box (a turned or clipped stand) is measured over them (see below)
-    occ_spec = GridSpec.from_bounds(*spec.bounds, FOOTPRINT_CELL, crs=spec.crs) if auto_res else None
-    occ = np.zeros(occ_spec.shape, bool) if auto_res else None
+    # the FOOTPRINT_CELL cells holding points: the density of an outline that does not fill its
+    # bounding box (a turned or clipped stand) is measured over them (see below)
+    occ = (GridAccumulator(GridSpec.from_bounds(*spec.bounds, FOOTPRINT_CELL, crs=spec.crs),
+                           ("count",)) if auto_res else None)
     stats = ("max", "min") if method.kind == "min" else ("max",)
     acc = GridAccumulator(spec, stats)
     # the lowest ground (class 2) return of each cell, at its own position (a TIN through cell
@@ -234,9 +234,7 @@ def compute_surfaces(src: PointSource, res, *, dtm="auto", fill="mean8", chm="ma
         n += len(chunk)
         acc.add(chunk.x, chunk.y, chunk.z)
         if occ is not None:
-            r, c = occ_spec.cell_index(chunk.x, chunk.y)
-            ok = (r >= 0) & (r < occ.shape[0]) & (c >= 0) & (c < occ.shape[1])
-            occ[r[ok], c[ok]] = True
+            occ.add(chunk.x, chunk.y, chunk.z)
         if gacc is not None and chunk.classification is not None:
             g = chunk.classification == 2
             if g.any():
@@ -256,7 +254,7 @@ def compute_surfaces(src: PointSource, res, *, dtm="auto", fill="mean8", chm="ma
 
         # -tr auto took the density over the bounding box; over the cells holding points it can
         # call for finer cells (a stand turned 45° fills half its box): read again at those
-        fine = chm_resolution(n, float(occ.sum()) * occ_spec.cell_area)
+        fine = chm_resolution(n, float((occ.count > 0).sum()) * occ.spec.cell_area)
         if fine < res - 1e-9:
             del acc, gacc, lacc, kept
             return compute_surfaces(src, fine, dtm=dtm, fill=fill, chm=chm, outliers=outliers,
@@ -757,14 +755,14 @@ def detect_with_stocking(arr, spec, params, heights=None, progress=None, *, retu
     result = detect_trees(arr, spec, params, heights=heights)
     check_cancel(progress)
     result["chm"] = arr
-    spacing, given, added, detected = params.spacing, params.spacing is not None, 0, None
+    spacing, given, added, detected, grid = params.spacing, params.spacing is not None, 0, None, None
     if not given and params.planting == "auto" and returns is not None:
         from .stocking import detect_planting
 
         t = result["table"]
         g = detect_planting(t["x"], t["y"])
         if g is not None:
-            spacing = (g.row_spacing, g.tree_spacing)
+            spacing, grid = (g.row_spacing, g.tree_spacing), g
             detected = f"{g.row_spacing:.2f}x{g.tree_spacing:.2f}"
     if spacing is not None:
         from .stocking import gap_tops, stocking
@@ -779,7 +777,7 @@ def detect_with_stocking(arr, spec, params, heights=None, progress=None, *, retu
                 "under-reported (a synthetic 3 x 2 m stand: 81.8 % found for a true 95.8 % at "
                 "2 points/m², 93.0 % at 4 points/m²)"), stacklevel=2)
         t = result["table"]
-        st = stocking(t["x"], t["y"], arr, spec, spacing, min_height=params.min_height)
+        st = stocking(t["x"], t["y"], arr, spec, spacing, min_height=params.min_height, grid=grid)
         if returns is not None and st["missing"]:
             rows, cols = gap_tops(st["gaps_x"], st["gaps_y"], returns, result["smoothed"], spec,
                                   spacing, top_x=t["x"], top_y=t["y"],
@@ -825,8 +823,7 @@ def trees_file(input, output, *, res="auto", params=None, dtm="auto", chm="pitfr
                                         outliers=outliers, drop_class=drop_class,
                                         keep_class=keep_class, a_srs=a_srs, t_srs=t_srs,
                                         progress=SubProgress(prog, 0, 0.5),
-                                        returns=p.spacing is not None or p.planting == "auto",
-                                        **read_kw)
+                                        returns=p.looks_at_planting, **read_kw)
     prog.update(0.5, "detecting trees")
     check_cancel(prog)
     result = detect_with_stocking(arr, spec, p, built.get("heights"), prog,

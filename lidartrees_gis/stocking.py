@@ -150,7 +150,8 @@ def stand_mask(chm, res: float, row_spacing: float, tree_spacing: float, *,
     return ndimage.binary_fill_holes(closed | canopy)
 
 
-def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0) -> dict:
+def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
+             grid: PlantingGrid | None = None) -> dict:
     """Planting positions, missing trees and stocking of a plantation.
 
     Each planting position of the fitted lattice (:func:`fit_planting_grid`) that lies in the
@@ -163,12 +164,13 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0) -> di
     dict with ``grid`` (:class:`PlantingGrid`), ``expected`` (positions), ``stocked``,
     ``missing``, ``extra`` (tops sharing a position with another, e.g. forks or weeds),
     ``stocking_pct``, ``planted_per_ha`` (10,000 / (R x C)), ``gaps_x``, ``gaps_y``,
-    ``gaps_i``, ``gaps_j`` (lattice indices of the missing trees).
+    ``gaps_i``, ``gaps_j`` (lattice indices of the missing trees). ``grid``: a lattice already
+    fitted to these tops (e.g. by :func:`detect_planting`), not fitted again.
     """
     R, C = spacing
     tx = np.asarray(top_x, float)
     ty = np.asarray(top_y, float)
-    g = fit_planting_grid(tx, ty, R, C)
+    g = grid if grid is not None else fit_planting_grid(tx, ty, R, C)
     mask = stand_mask(chm, spec.res, R, C, min_height=min_height)
     # lattice nodes covering the grid
     left, bottom, right, top = spec.bounds
@@ -293,7 +295,7 @@ PLANTING_MIN_FIT = 0.25
 def _spacing_along(p, s0):
     """The period near ``s0`` (within ±15 %) on which the positions ``p`` concentrate most."""
     cand = s0 * np.linspace(0.85, 1.15, 121)
-    r = np.abs(np.exp(2j * np.pi * p[None, :] / cand[:, None]).mean(axis=1))
+    r, _ = _concentration(p[None, :], cand[:, None])
     return float(cand[int(np.argmax(r))])
 
 

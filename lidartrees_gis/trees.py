@@ -152,6 +152,12 @@ class TreeParams:
         return d
 
     @property
+    def looks_at_planting(self) -> bool:
+        """Whether the trees get a second look at the empty planting positions (``spacing``
+        given, or ``planting="auto"``): it needs the highest return of each cell."""
+        return self.spacing is not None or self.planting == "auto"
+
+    @property
     def tops_finder(self) -> str:
         """The tree-top finder ``tops="auto"`` stands for."""
         if self.tops != "auto":
