@@ -251,6 +251,26 @@ def default_workers(workers, scheduler, count: int):
     return 1 if count < LOCAL_BELOW_POINTS else None
 
 
+def worker_start_method() -> str:
+    """How a local cluster starts its worker processes: Dask's own setting when it is not the
+    default ``spawn``; else ``fork`` where it is safe (Linux, no other Python thread and no Qt in
+    this process: the workers inherit its imported library instead of starting a new
+    interpreter and importing it again, which on 2 cores took CPU from the tiles), else
+    ``spawn``. Measured at 16 M points on 2 workers: 26.1-26.8 s forked, 27.6-27.8 s spawned
+    (the workers' CPU 44.7-44.8 s against 46.0-47.5 s)."""
+    import sys
+    import threading
+
+    import dask
+
+    method = dask.config.get("distributed.worker.multiprocessing-method", "spawn")
+    if method != "spawn":
+        return method
+    safe = (sys.platform.startswith("linux") and threading.active_count() == 1
+            and not any(m in sys.modules for m in ("PyQt5", "PyQt6", "qgis")))
+    return "fork" if safe else "spawn"
+
+
 def _client(workers, scheduler):
     from dask.distributed import Client, LocalCluster
 
@@ -267,7 +287,8 @@ def _client(workers, scheduler):
     env = {k: v for k, v in (dask.config.get("distributed.nanny.pre-spawn-environ") or {}).items()
            if k != "MALLOC_TRIM_THRESHOLD_"}
     with dask.config.set({"distributed.worker.profile.enabled": False,
-                          "distributed.nanny.pre-spawn-environ": env}):
+                          "distributed.nanny.pre-spawn-environ": env,
+                          "distributed.worker.multiprocessing-method": worker_start_method()}):
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                dashboard_address=None, silence_logs=logging.ERROR)
     return Client(cluster), cluster
@@ -521,13 +542,15 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
                 pending, pending_rows = [], 0
 
             topts = {**opts, "return_chm": mosaic is not None}
-            for r in runner.map(tile_trees, tiles, (catalog, p, topts),
-                                progress=SubProgress(prog, 0.02, 0.95)):
+            for done, r in enumerate(runner.map(tile_trees, tiles, (catalog, p, topts),
+                                                progress=SubProgress(prog, 0.02, 0.95)), 1):
                 k = len(r["tree_id"])
                 if k:
                     pending.append(_tree_rows(r))
                     pending_rows += k
-                    if pending_rows >= 20_000:
+                    # in the last wave of tiles, written as they come while the other workers
+                    # finish theirs: only the last tile's trees are left to write at the end
+                    if pending_rows >= 20_000 or len(tiles) - done < runner.workers:
                         flush()
                     ids.append(np.asarray(r["tree_id"], np.int64))
                     h = np.asarray(r["height"], float)

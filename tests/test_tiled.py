@@ -1,5 +1,6 @@
 """Issue 10: many inputs, tiles with buffers, seamless trees whatever the tiling, Dask."""
 import json
+from pathlib import Path
 
 import geopandas as gpd
 import numpy as np
@@ -151,6 +152,51 @@ def test_small_runs_stay_in_this_process_unless_workers_are_asked(split_stand, t
     with pytest.raises(AssertionError, match="cluster"):
         trees_tiled(d, tmp_path / "c.gpkg", tile_size=30)
     assert tiled.default_workers(None, "tcp://x:8786", 10) is None  # a scheduler: its workers
+
+
+_START_CHECK = """
+import sys, threading
+import lidartrees_gis.tiled as tiled
+if __name__ == "__main__":
+    if sys.argv[1] == "thread":  # another thread running: forking could deadlock the workers
+        ev = threading.Event()
+        threading.Thread(target=ev.wait, daemon=True).start()
+    tiled.SENTINEL = 42  # set at run time: only a forked worker sees it
+    method = tiled.worker_start_method()
+    with tiled.TileRunner(2) as r:
+        seen = list(r.map(lambda _: getattr(__import__("lidartrees_gis.tiled").tiled,
+                                            "SENTINEL", None), [0, 1], ordered=True))
+    print(method, seen)
+    if sys.argv[1] == "thread":
+        ev.set()
+"""
+
+
+@pytest.mark.parametrize("case, method, seen", [("plain", "fork", [42, 42]),
+                                                 ("thread", "spawn", [None, None])])
+def test_local_workers_are_forked_when_it_is_safe(case, method, seen, tmp_path):
+    """The workers of a local cluster inherit this process's imported library (fork) instead
+    of starting Python again, unless another thread runs here (or Qt is loaded)."""
+    pytest.importorskip("dask.distributed")
+    import subprocess
+    import sys
+
+    script = tmp_path / "start_check.py"
+    script.write_text(_START_CHECK)
+    p = subprocess.run([sys.executable, str(script), case], capture_output=True, text=True,
+                       timeout=300, cwd=str(Path(__file__).resolve().parents[1]))
+    assert p.returncode == 0, p.stderr[-2000:]
+    assert p.stdout.split()[0] == method
+    assert p.stdout.strip().endswith(str(seen))
+
+
+def test_worker_start_method_keeps_a_configured_one():
+    import dask
+
+    from lidartrees_gis.tiled import worker_start_method
+
+    with dask.config.set({"distributed.worker.multiprocessing-method": "forkserver"}):
+        assert worker_start_method() == "forkserver"
 
 
 def test_laz_is_decompressed_on_one_thread_inside_a_dask_worker():
