@@ -27,7 +27,12 @@ class TqdmProgress(NullProgress):
     def __init__(self, desc: str = "", disable: bool = False):
         from tqdm import tqdm
 
-        self._bar = tqdm(total=100, desc=desc, file=sys.stderr, disable=disable,
+        class _Bar(tqdm):
+            # no monitor thread: the bar is refreshed by update(), and a second thread would
+            # keep the local Dask workers from being forked (tiled.worker_start_method)
+            monitor_interval = 0
+
+        self._bar = _Bar(total=100, desc=desc, file=sys.stderr, disable=disable,
                          bar_format="{l_bar}{bar}| {n:.0f}% [{elapsed}] {postfix}", leave=False)
 
     def update(self, fraction: float, message: str = "") -> None:

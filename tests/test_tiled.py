@@ -190,6 +190,19 @@ def test_local_workers_are_forked_when_it_is_safe(case, method, seen, tmp_path):
     assert p.stdout.strip().endswith(str(seen))
 
 
+def test_the_cli_progress_bar_starts_no_thread():
+    """A thread in the calling process would make the local workers spawn instead of fork."""
+    import threading
+
+    from lidartrees_gis.progress import TqdmProgress
+
+    before = threading.active_count()
+    bar = TqdmProgress("trees")
+    bar.update(0.5, "tile 1/2")
+    assert threading.active_count() == before
+    bar.close()
+
+
 def test_worker_start_method_keeps_a_configured_one():
     import dask
 
