@@ -202,7 +202,7 @@ def tile_trees(tile: Tile, catalog: Catalog, params, opts: dict) -> dict:
     if s is None:
         cols = ("tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_cells")
         return {**{c: np.empty(0, np.int64 if c in ("tree_id", "n_cells") else np.float64)
-                   for c in cols}, "wkb": [], "chm": np.empty((0, 0), np.float32),
+                   for c in cols}, "wkb": [], "top_wkb": [], "chm": np.empty((0, 0), np.float32),
                 "chm_left": tile.core[0], "chm_top": tile.core[3], "res": opts["res"],
                 "canopy_cells": 0, "points": 0, "dropped": {}, "outlier_points": 0,
                 "tile": tile.index}
@@ -218,6 +218,7 @@ def tile_trees(tile: Tile, catalog: Catalog, params, opts: dict) -> dict:
     cols = ("tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_cells")
     out = {c: np.asarray(t[c])[idx] for c in cols}
     out["wkb"] = shapely.to_wkb(np.asarray(polys, dtype=object)) if idx.size else []
+    out["top_wkb"] = shapely.to_wkb(shapely.points(out["x"], out["y"])) if idx.size else []
     # the core window of the CHM in the tile's grid
     x0, y0, x1, y1 = tile.core
     c0 = max(0, int(math.floor((x0 - spec.left) / spec.res + 1e-9)))
@@ -433,28 +434,24 @@ _TREE_COLS = ("tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_
 
 
 def _tree_rows(r: dict) -> dict:
-    """One tile's trees as arrays, ordered by tree_id (WKB crowns under ``wkb``)."""
+    """One tile's trees as arrays, ordered by tree_id (WKB crowns and tops under ``wkb`` and
+    ``top_wkb``)."""
     order = np.argsort(r["tree_id"], kind="stable")
     rows = {c: np.asarray(r[c])[order] for c in _TREE_COLS}
-    rows["wkb"] = np.asarray(list(r["wkb"]), dtype=object)[order]
+    for g in ("wkb", "top_wkb"):
+        rows[g] = np.asarray(list(r[g]), dtype=object)[order]
     return rows
 
 
-def _tree_frames(parts: list, method: str, crs):
-    """Tops and crowns GeoDataFrames of several tiles' :func:`_tree_rows`, built once for the
-    batch (per tile, the frames and their CRS were most of the calling process's own work)."""
-    import geopandas as gpd
-    import pandas as pd
-    import shapely
-
-    attrs = pd.DataFrame({c: np.concatenate([p[c] for p in parts]) for c in _TREE_COLS})
-    attrs["tree_id"] = attrs["tree_id"].astype("int64")
-    attrs["n_cells"] = attrs["n_cells"].astype("int64")
-    attrs["method"] = method
-    geoms = shapely.from_wkb(np.concatenate([p["wkb"] for p in parts]))
-    tops = gpd.GeoDataFrame(attrs.copy(), geometry=shapely.points(attrs["x"], attrs["y"]), crs=crs)
-    crowns = gpd.GeoDataFrame(attrs, geometry=geoms, crs=crs)
-    return tops, crowns
+def _tree_fields(parts: list, method: str):
+    """Field names and arrays of several tiles' :func:`_tree_rows`, for one write of the
+    batch: the workers' WKB goes to GDAL as it is (decoding it into shapely geometries and a
+    GeoDataFrame only to encode it again was a fifth of the calling process's work)."""
+    data = [np.concatenate([p[c] for p in parts]) for c in _TREE_COLS]
+    data[0] = data[0].astype(np.int64)  # tree_id
+    data[-1] = data[-1].astype(np.int64)  # n_cells
+    data.append(np.full(len(data[0]), method, dtype=object))
+    return [*_TREE_COLS, "method"], data
 
 
 def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, workers=None,
@@ -472,6 +469,7 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
 
     import pandas as pd
     import pyogrio
+    import pyogrio.raw
 
     from . import __version__
     from .crs import crs_label
@@ -522,6 +520,14 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
                                             geometry_type=geometry_type)
                 created.add(layer)
 
+            def put_wkb(wkb, fields, data, layer, geometry_type):
+                new = layer not in existing and layer not in created
+                pyogrio.raw.write(tmp, wkb, data, fields, layer=layer, driver="GPKG",
+                                  geometry_type=geometry_type, crs=crs, append=not new,
+                                  layer_options=(layer_options or None) if new else None,
+                                  layer_metadata=meta if new else None)
+                created.add(layer)
+
             mosaic = None
             if chm_out:
                 ctmp = stack.enter_context(atomic_output(chm_out, overwrite, param="-chm_out"))
@@ -536,9 +542,11 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
                 # two per tile (the writes are the calling process's main work)
                 nonlocal pending, pending_rows
                 if pending:
-                    tops, crowns = _tree_frames(pending, p.method, crs)
-                    put(tops, names["tops"], "Point")
-                    put(crowns, names["crowns"], "Polygon")
+                    fields, data = _tree_fields(pending, p.method)
+                    put_wkb(np.concatenate([q["top_wkb"] for q in pending]), fields, data,
+                            names["tops"], "Point")
+                    put_wkb(np.concatenate([q["wkb"] for q in pending]), fields, data,
+                            names["crowns"], "Polygon")
                 pending, pending_rows = [], 0
 
             topts = {**opts, "return_chm": mosaic is not None}
