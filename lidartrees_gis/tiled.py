@@ -237,8 +237,8 @@ def tile_trees(tile: Tile, catalog: Catalog, params, opts: dict) -> dict:
 
 
 #: below this many points a run stays in the calling process unless ``workers`` or
-#: ``scheduler`` say otherwise: starting a local cluster (0.6 s forked, 1.2 s spawned) costs more than the second
-#: core saves. Measured on 2 cores with forked workers, Megaplot copies: 0.16 M points 1.5-1.6 s
+#: ``scheduler`` say otherwise: starting a local cluster (0.6 s forked, 1.2 s spawned) costs
+#: more than the second core saves. Measured on 2 cores with forked workers, Megaplot copies: 0.16 M points 1.5-1.6 s
 #: in one process, 2.0 s on two workers; 0.49 M 2.2 / 2.3-2.5 s; 0.98 M 3.4-3.6 / 3.0-3.4 s;
 #: 2.0 M 6.0 / 4.9 s (spawned workers: 3.2 s at 0.16 M)
 LOCAL_BELOW_POINTS = 1_000_000
