@@ -483,7 +483,7 @@ COMMANDS = {
                flag="-min_separation", advanced=True, unit="m"),
          Param("planting", "choice", "Without -spacing: auto = when the tops lie on a planting "
                "lattice (at least 100 trees, lattice fit >= 0.25), look again at its empty "
-               "positions for trees the tops finder missed (one-file runs); none = off",
+               "positions for trees the tops finder missed (tiled runs: each tile); none = off",
                flag="-planting", choices=("auto", "none"), default="auto", advanced=True),
          Param("step", "float", "Region-growing threshold step (ajuste, Castro 2006, Annex 2)",
                flag="-step", default=0.1, advanced=True, unit="m"),

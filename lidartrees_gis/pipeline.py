@@ -748,7 +748,8 @@ def detect_with_stocking(arr, spec, params, heights=None, progress=None, *, retu
     that the stocking is under-reported. Without a spacing (``params.planting="auto"``), when
     the tops lie on a planting lattice (:func:`lidartrees_gis.stocking.detect_planting`;
     ``result["planting_detected"]`` gives its spacings), its empty positions get the same
-    second look, without a stocking report.
+    second look, without a stocking report. The cells of the added tops are
+    ``result["gap_tops"]`` (rows, cols).
     """
     from .trees import detect_trees
 
@@ -795,6 +796,8 @@ def detect_with_stocking(arr, spec, params, heights=None, progress=None, *, retu
         if given:  # the stocking report (gaps layer) is for plantation mode only
             result["stocking"] = st
     result["gap_trees"] = added
+    if added:
+        result["gap_tops"] = (rows, cols)
     if detected:
         result["planting_detected"] = detected
     return result

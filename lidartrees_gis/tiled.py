@@ -202,12 +202,21 @@ def tile_trees(tile: Tile, catalog: Catalog, params, opts: dict) -> dict:
     if s is None:
         cols = ("tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_cells")
         return {**{c: np.empty(0, np.int64 if c in ("tree_id", "n_cells") else np.float64)
-                   for c in cols}, "wkb": [], "top_wkb": [], "chm": np.empty((0, 0), np.float32),
+                   for c in cols}, "wkb": [], "top_wkb": [], "gap_trees": 0, "planting": None,
+                "chm": np.empty((0, 0), np.float32),
                 "chm_left": tile.core[0], "chm_top": tile.core[3], "res": opts["res"],
                 "canopy_cells": 0, "points": 0, "dropped": {}, "outlier_points": 0,
                 "tile": tile.index}
     spec = s["spec"]
-    r = detect_trees(s["chm"], spec, params, heights=s["heights"])
+    if params.looks_at_planting:
+        # the tile's own look for a planting lattice under its tops (with its buffer), and a
+        # second look at the lattice's empty positions, as for one file
+        from .pipeline import detect_with_stocking
+
+        r = detect_with_stocking(s["chm"], spec, params, heights=s["heights"],
+                                 returns=s["returns"])
+    else:
+        r = detect_trees(s["chm"], spec, params, heights=s["heights"])
     t = r["table"]
     keep = tile.in_core(t["x"], t["y"])
     idx = np.nonzero(keep)[0]
@@ -217,6 +226,14 @@ def tile_trees(tile: Tile, catalog: Catalog, params, opts: dict) -> dict:
     polys = crown_polygons(labels, spec, idx.size)
     cols = ("tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_cells")
     out = {c: np.asarray(t[c])[idx] for c in cols}
+    gap_trees = 0
+    if "gap_tops" in r:  # the trees of the second look that lie in the core
+        added = set(zip(*(np.asarray(a).tolist() for a in r["gap_tops"])))
+        gap_trees = sum((a, b) in added for a, b in zip(np.asarray(t["row"])[idx].tolist(),
+                                                         np.asarray(t["col"])[idx].tolist()))
+    out["gap_trees"] = gap_trees
+    g = r.get("planting_detected")
+    out["planting"] = tuple(float(v) for v in g.split("x")) if g else None
     out["wkb"] = shapely.to_wkb(np.asarray(polys, dtype=object)) if idx.size else []
     out["top_wkb"] = shapely.to_wkb(shapely.points(out["x"], out["y"])) if idx.size else []
     # the core window of the CHM in the tile's grid
@@ -505,6 +522,7 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
         names = {"tops": f"{nln}tree_tops", "crowns": f"{nln}crowns", "summary": f"{nln}summary"}
         ids, n, hsum, h2sum, dsum = [], 0, 0.0, 0.0, 0.0
         canopy, points, dropped, outliers = 0, 0, {}, 0
+        gap_trees, lattices = 0, []  # trees of the second look; the tiles' planting lattices
         with contextlib.ExitStack() as stack:
             tmp = stack.enter_context(atomic_output(output, overwrite=True))
             existing = start_from_existing(out_path, tmp, append)
@@ -568,6 +586,9 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
                     dsum += float(np.sum(r["crown_diameter"]))
                 canopy += r["canopy_cells"]
                 points += r["points"]
+                gap_trees += r["gap_trees"]
+                if r["planting"]:
+                    lattices.append(r["planting"])
                 outliers += r["outlier_points"] or 0
                 for c, v in r["dropped"].items():
                     dropped[c] = dropped.get(c, 0) + v
@@ -583,6 +604,9 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
                 put(gpd.GeoDataFrame(empty, geometry=gpd.GeoSeries([], crs=crs)), names["tops"], "Point")
                 put(gpd.GeoDataFrame(empty, geometry=gpd.GeoSeries([], crs=crs)), names["crowns"], "Polygon")
             area_ha = canopy * res * res / 1e4
+            # the median spacings of the tiles that found a planting lattice under their tops
+            planting = ("{:.2f}x{:.2f}".format(*np.median(np.asarray(lattices), axis=0))
+                        if lattices else "")
             mean_h = hsum / n if n else np.nan
             sd_h = float(np.sqrt(max(h2sum - n * mean_h ** 2, 0.0) / (n - 1))) if n > 1 else np.nan
             summary = pd.DataFrame([{
@@ -593,7 +617,8 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
                 "crown_scale": p.crown_scale, "dominant_height": p.dominant_height,
                 "tiles": len(tiles), "tile_size": tiles[0].core[2] - tiles[0].core[0] if tiles else np.nan,
                 "buffer": buf, "points": catalog.count, "outlier_points": outliers,
-                "dropped_classes": ",".join(f"{c}:{v}" for c, v in sorted(dropped.items()))}])
+                "dropped_classes": ",".join(f"{c}:{v}" for c, v in sorted(dropped.items())),
+                "gap_trees": gap_trees, "planting_detected": planting, "planting_tiles": len(lattices)}])
             with warnings.catch_warnings():
                 warnings.filterwarnings("ignore", message=".*geometry.*")
                 pyogrio.write_dataframe(summary, tmp, layer=names["summary"], driver="GPKG",
@@ -607,7 +632,9 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
                 "mean_crown_diameter": round(dsum / n, 2) if n else None,
                 "trees_per_ha": round(n / area_ha, 1) if area_ha else None,
                 "dropped_classes": {str(k): v for k, v in sorted(dropped.items())} or None,
-                "outlier_points": outliers or None, "table": None, "tree_ids": tree_ids}
+                "outlier_points": outliers or None, "gap_trees": gap_trees,
+                "planting_detected": planting or None, "planting_tiles": len(lattices),
+                "table": None, "tree_ids": tree_ids}
 
 
 def chm_tile(tile: Tile, catalog: Catalog, opts: dict) -> dict:

@@ -102,6 +102,37 @@ def test_tiled_equals_untiled_on_a_stand_split_in_files(split_stand, tmp_path):
     assert e["all"]["f_score"] >= 0.97
 
 
+def test_tiles_look_for_a_planting_lattice_as_one_file_does(tmp_path):
+    """The 4 pts/m² stand in 6 tiles: each tile finds the 3 x 2 m lattice under its tops and
+    looks again at its empty positions, as the whole file does (F >= 0.97)."""
+    from pyproj import CRS as PCRS
+
+    from lidartrees_gis.evaluate import evaluate_trees
+    from lidartrees_gis.pipeline import trees_file
+    from lidartrees_gis.synthetic import CRS as SCRS
+    from lidartrees_gis.synthetic import StandParams, make_stand
+    from lidartrees_gis.trees import TreeParams
+
+    pts, truth = make_stand(StandParams(seed=3, density=4.0))
+    f = tmp_path / "stand.laz"
+    write_points(f, pts.x, pts.y, pts.z, crs=PCRS.from_user_input(SCRS),
+                 classification=pts.classification)
+    whole = trees_file(f, tmp_path / "one.gpkg")
+    tiled = trees_tiled(f, tmp_path / "tiled.gpkg", tile_size=30, workers=1)
+    off = trees_tiled(f, tmp_path / "off.gpkg", tile_size=30, workers=1,
+                      params=TreeParams(planting="none"))
+    assert tiled["tiles"] == tiled["planting_tiles"] == 6 and off["planting_tiles"] == 0
+    assert tiled["planting_detected"] == "3.00x2.00" and off["gap_trees"] == 0
+    assert tiled["gap_trees"] >= 10 and tiled["trees"] == off["trees"] + tiled["gap_trees"]
+    ids = set(whole["result"]["table"]["tree_id"])
+    assert len(ids ^ set(tiled["tree_ids"])) <= 2
+    tops = pyogrio.read_dataframe(tmp_path / "tiled.gpkg", layer="tree_tops")
+    e = evaluate_trees(tops.x, tops.y, tops.height, truth["x"], truth["y"], truth["height"])
+    assert e["all"]["f_score"] >= 0.97
+    summary = pyogrio.read_dataframe(tmp_path / "tiled.gpkg", layer="summary")
+    assert summary.gap_trees[0] == tiled["gap_trees"] and summary.planting_tiles[0] == 6
+
+
 def test_dask_cluster_gives_the_same_trees(split_stand, tmp_path):
     pytest.importorskip("dask.distributed")
     d, _, _ = split_stand

@@ -489,6 +489,24 @@ def test_detect_planting_finds_the_lattice_of_a_stand_and_none_in_random_trees(s
     assert detect_planting(truth["x"][:80], truth["y"][:80]) is None
 
 
+def test_detect_planting_gives_up_after_a_fit_on_a_sample_of_random_trees(stand, monkeypatch):
+    """Every tile of a large area looks for a lattice: random trees are given up on after a
+    fit on PRE_FIT_TREES of them; a stand's lattice is then fitted on all its tops."""
+    from lidartrees_gis import stocking
+
+    calls = []
+    fit = stocking.fit_planting_grid
+    monkeypatch.setattr(stocking, "fit_planting_grid",
+                        lambda x, y, r, t: calls.append(len(x)) or fit(x, y, r, t))
+    rng = np.random.default_rng(5)
+    assert stocking.detect_planting(rng.uniform(0, 200, 2000), rng.uniform(0, 200, 2000)) is None
+    assert calls == [stocking.PRE_FIT_TREES]
+    calls.clear()
+    _, truth = stand
+    assert stocking.detect_planting(truth["x"], truth["y"]) is not None
+    assert calls == [stocking.PRE_FIT_TREES, truth["x"].size]
+
+
 def test_defaults_look_again_at_the_empty_positions_of_a_detected_lattice(tmp_path, data):
     """Without -spacing: the 4 pts/m² stand's tops lie on a 3 x 2 m lattice, so its empty
     positions get the second look (F >= 0.97 against the truth, no stocking report);
