@@ -102,8 +102,7 @@ class TreeParams:
         Without ``spacing``: ``auto`` looks for a planting lattice under the tops
         (:func:`lidartrees_gis.stocking.detect_planting`) and, when there is one, looks again
         at its empty positions for trees the tops finder missed (in tiled runs, each tile on
-        its own); ``none``
-        does not.
+        its own); ``none`` does not.
     """
 
     method: str = "rg"
