@@ -157,7 +157,7 @@ def stand_mask(chm, res: float, row_spacing: float, tree_spacing: float, *,
 
 
 def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
-             grid: PlantingGrid | None = None) -> dict:
+             grid: PlantingGrid | None = None, within=None) -> dict:
     """Planting positions, missing trees and stocking of a plantation.
 
     Each planting position of the fitted lattice (:func:`fit_planting_grid`) that lies in the
@@ -171,7 +171,9 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
     ``missing``, ``extra`` (tops sharing a position with another, e.g. forks or weeds),
     ``stocking_pct``, ``planted_per_ha`` (10,000 / (R x C)), ``gaps_x``, ``gaps_y``,
     ``gaps_i``, ``gaps_j`` (lattice indices of the missing trees). ``grid``: a lattice already
-    fitted to these tops (e.g. by :func:`detect_planting`), not fitted again.
+    fitted to these tops (e.g. by :func:`detect_planting`), not fitted again. ``within``
+    (left, bottom, right, top): the tops are matched to every position, but only the
+    positions, tops and planted cells inside this box are counted and reported (a tile's core).
     """
     R, C = spacing
     tx = np.asarray(top_x, float)
@@ -204,6 +206,18 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
     # weeds, trees off the grid)
     free = np.ones(tx.size, bool)
     free[top_k] = False
+    planted_cells = float(mask.sum())
+    if within is not None:  # count only what lies in the box
+        x0, y0, x1, y1 = within
+        inb = (nx >= x0) & (nx < x1) & (ny >= y0) & (ny < y1)
+        ii, jj, nx, ny, stocked_mask = ii[inb], jj[inb], nx[inb], ny[inb], stocked_mask[inb]
+        expected, stocked = int(ii.size), int(stocked_mask.sum())
+        gaps = ~stocked_mask
+        free &= (tx >= x0) & (tx < x1) & (ty >= y0) & (ty < y1)
+        cx, _ = spec.xy(0, np.arange(spec.width))
+        _, cy = spec.xy(np.arange(spec.height), 0)
+        planted_cells = float((mask & ((cx >= x0) & (cx < x1))[None, :]
+                               & ((cy >= y0) & (cy < y1))[:, None]).sum())
     fi, fj = g.to_lattice(tx[free], ty[free])
     nodes = set(zip(ii.astype(int).tolist(), jj.astype(int).tolist()))
     extra = sum((a, b) in nodes for a, b in zip(np.round(fi).astype(int).tolist(),
@@ -211,7 +225,7 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
     return {"grid": g, "expected": expected, "stocked": stocked, "missing": int(gaps.sum()),
             "extra": max(extra, 0),
             "stocking_pct": 100.0 * stocked / expected if expected else float("nan"),
-            "planted_per_ha": 1e4 / (R * C), "planted_area_ha": float(mask.sum()) * spec.cell_area / 1e4,
+            "planted_per_ha": 1e4 / (R * C), "planted_area_ha": planted_cells * spec.cell_area / 1e4,
             "gaps_x": nx[gaps], "gaps_y": ny[gaps], "gaps_i": ii[gaps].astype(np.int64),
             "gaps_j": jj[gaps].astype(np.int64)}
 

@@ -202,7 +202,7 @@ def tile_trees(tile: Tile, catalog: Catalog, params, opts: dict) -> dict:
     if s is None:
         cols = ("tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_cells")
         return {**{c: np.empty(0, np.int64 if c in ("tree_id", "n_cells") else np.float64)
-                   for c in cols}, "wkb": [], "top_wkb": [], "gap_trees": 0, "planting": None,
+                   for c in cols}, "wkb": [], "top_wkb": [], "gap_trees": 0, "planting": None, "stocking": None,
                 "chm": np.empty((0, 0), np.float32),
                 "chm_left": tile.core[0], "chm_top": tile.core[3], "res": opts["res"],
                 "canopy_cells": 0, "points": 0, "dropped": {}, "outlier_points": 0,
@@ -214,7 +214,8 @@ def tile_trees(tile: Tile, catalog: Catalog, params, opts: dict) -> dict:
         from .pipeline import detect_with_stocking
 
         r = detect_with_stocking(s["chm"], spec, params, heights=s["heights"],
-                                 returns=s["returns"])
+                                 returns=s["returns"],
+                                 within=tile.core if params.spacing is not None else None)
     else:
         r = detect_trees(s["chm"], spec, params, heights=s["heights"])
     t = r["table"]
@@ -234,6 +235,11 @@ def tile_trees(tile: Tile, catalog: Catalog, params, opts: dict) -> dict:
     out["gap_trees"] = gap_trees
     g = r.get("planting_detected")
     out["planting"] = tuple(float(v) for v in g.split("x")) if g else None
+    st = r.get("stocking")  # plantation mode: the core's positions
+    out["stocking"] = None if st is None else {
+        **{k: st[k] for k in ("expected", "stocked", "missing", "extra", "planted_area_ha",
+                              "gaps_x", "gaps_y", "gaps_i", "gaps_j")},
+        "azimuth": st["grid"].azimuth}
     out["wkb"] = shapely.to_wkb(np.asarray(polys, dtype=object)) if idx.size else []
     out["top_wkb"] = shapely.to_wkb(shapely.points(out["x"], out["y"])) if idx.size else []
     # the core window of the CHM in the tile's grid
@@ -376,12 +382,12 @@ class TileRunner:
 
 def plan(catalog: Catalog, params, opts: dict, tile_size=None, buffer=None, runner=None):
     """Area parameters and tiles: ``(params with crown scale and dominant height, opts with the
-    cell size, tiles, buffer)``."""
+    cell size and the median point density, tiles, buffer)``."""
     from dataclasses import replace
 
     ap = area_parameters(catalog, opts.get("res"), params, opts, runner=runner)
     params = replace(params, crown_scale=ap["crown_scale"], dominant_height=ap["dominant_height"])
-    opts = {**opts, "res": ap["res"], "max_edge": ap["max_edge"]}
+    opts = {**opts, "res": ap["res"], "max_edge": ap["max_edge"], "density": ap["density"]}
     ts = _tile_side(tile_size, ap["density"], ap["res"])  # tile edges on cell edges
     buf = float(buffer) if buffer is not None else max(MIN_BUFFER, BUFFER_CROWNS * ap["crown_scale"])
     if buf < 0:
@@ -492,13 +498,12 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
     from .crs import crs_label
     from .grid import GridSpec
     from .io.output import atomic_output, check_outputs
+    from .metrics import tree_ids
+    from .pipeline import warn_sparse_plantation
     from .progress import SubProgress
     from .trees import TreeParams
 
     p = params or TreeParams()
-    if p.spacing is not None:
-        raise InputError("-spacing (plantation mode) works on one tile at a time for now: run "
-                         "trees on each stand's file without -tile_size")
     out_path = Path(output)
     if out_path.suffix.lower() != ".gpkg":
         raise InputError(f"OUTPUT: {out_path}: expected a .gpkg file name")
@@ -512,6 +517,8 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
     with TileRunner(default_workers(workers, scheduler, catalog.count), scheduler) as runner:
         p, opts, tiles, buf = plan(catalog, p, opts, tile_size, buffer, runner=runner)
         res = opts["res"]
+        if p.spacing is not None:
+            warn_sparse_plantation(opts["density"])
         gspec = GridSpec.from_bounds(*catalog.extent, res, crs=catalog.crs)
         crs = catalog.crs.to_wkt() if catalog.crs is not None else None
         meta = {"lidartrees_version": __version__, "input": str(input),
@@ -519,10 +526,15 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
                 "tiles": len(tiles), "buffer": buf}
         meta = {k: (v if isinstance(v, str) else __import__("json").dumps(v, default=str))
                 for k, v in meta.items()}
-        names = {"tops": f"{nln}tree_tops", "crowns": f"{nln}crowns", "summary": f"{nln}summary"}
+        names = {"tops": f"{nln}tree_tops", "crowns": f"{nln}crowns", "summary": f"{nln}summary",
+                 "gaps": f"{nln}gaps"}
         ids, n, hsum, h2sum, dsum = [], 0, 0.0, 0.0, 0.0
         canopy, points, dropped, outliers = 0, 0, {}, 0
         gap_trees, lattices = 0, []  # trees of the second look; the tiles' planting lattices
+        # plantation mode: the tiles' positions, stocked, missing, extra tops, planted area,
+        # row azimuths
+        stock = {"expected": 0, "stocked": 0, "missing": 0, "extra": 0, "planted_area_ha": 0.0}
+        azimuths = []
         with contextlib.ExitStack() as stack:
             tmp = stack.enter_context(atomic_output(output, overwrite=True))
             existing = start_from_existing(out_path, tmp, append)
@@ -545,6 +557,19 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
                                   layer_options=(layer_options or None) if new else None,
                                   layer_metadata=meta if new else None)
                 created.add(layer)
+
+            def put_gaps(st, tile):
+                # ids from the position's cell in the global grid (as tree_id); the row and
+                # position indices are those of the tile's own lattice (``tile``)
+                import shapely
+
+                gx, gy = np.asarray(st["gaps_x"]), np.asarray(st["gaps_y"])
+                fields = ["gap_id", "row_index", "position_in_row", "x", "y", "tile"]
+                data = [tree_ids(gx, gy, res), np.asarray(st["gaps_j"], np.int64),
+                        np.asarray(st["gaps_i"], np.int64), gx, gy,
+                        np.full(gx.size, "_".join(map(str, tile)), dtype=object)]
+                put_wkb(shapely.to_wkb(shapely.points(gx, gy)), fields, data, names["gaps"],
+                        "Point")
 
             mosaic = None
             if chm_out:
@@ -589,6 +614,13 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
                 gap_trees += r["gap_trees"]
                 if r["planting"]:
                     lattices.append(r["planting"])
+                st = r["stocking"]
+                if st is not None:
+                    for key in stock:
+                        stock[key] += st[key]
+                    azimuths.append(st["azimuth"])
+                    if st["missing"]:
+                        put_gaps(st, r["tile"])
                 outliers += r["outlier_points"] or 0
                 for c, v in r["dropped"].items():
                     dropped[c] = dropped.get(c, 0) + v
@@ -609,7 +641,7 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
                         if lattices else "")
             mean_h = hsum / n if n else np.nan
             sd_h = float(np.sqrt(max(h2sum - n * mean_h ** 2, 0.0) / (n - 1))) if n > 1 else np.nan
-            summary = pd.DataFrame([{
+            srow = {
                 "trees": n, "area_ha": area_ha, "trees_per_ha": n / area_ha if area_ha else np.nan,
                 "mean_height": mean_h, "sd_height": sd_h,
                 "mean_crown_diameter": dsum / n if n else np.nan,
@@ -618,13 +650,24 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
                 "tiles": len(tiles), "tile_size": tiles[0].core[2] - tiles[0].core[0] if tiles else np.nan,
                 "buffer": buf, "points": catalog.count, "outlier_points": outliers,
                 "dropped_classes": ",".join(f"{c}:{v}" for c, v in sorted(dropped.items())),
-                "gap_trees": gap_trees, "planting_detected": planting, "planting_tiles": len(lattices)}])
+                "gap_trees": gap_trees, "planting_detected": planting, "planting_tiles": len(lattices)}
+            if p.spacing is not None:  # plantation mode: the stocking of all tiles
+                e = stock["expected"]
+                srow.update({
+                    "spacing": f"{p.spacing[0]:g}x{p.spacing[1]:g}",
+                    "row_azimuth": float(np.median(azimuths)) if azimuths else np.nan,
+                    "planting_positions": e, "stocked_positions": stock["stocked"],
+                    "missing_trees": stock["missing"], "extra_tops": stock["extra"],
+                    "stocking_pct": 100.0 * stock["stocked"] / e if e else np.nan,
+                    "planted_per_ha": 1e4 / (p.spacing[0] * p.spacing[1]),
+                    "planted_area_ha": stock["planted_area_ha"]})
+            summary = pd.DataFrame([srow])
             with warnings.catch_warnings():
                 warnings.filterwarnings("ignore", message=".*geometry.*")
                 pyogrio.write_dataframe(summary, tmp, layer=names["summary"], driver="GPKG",
                                         append=names["summary"] in existing)
         prog.update(1.0, "done")
-        tree_ids = np.concatenate(ids) if ids else np.empty(0, np.int64)
+        ids_all = np.concatenate(ids) if ids else np.empty(0, np.int64)
         return {"output": str(output), "trees": n, "crs": crs_label(catalog.crs), "files": len(catalog.files),
                 "points": catalog.count, "points_read": points, "tiles": len(tiles), "buffer": round(buf, 2),
                 "res": res, "crown_scale": round(float(p.crown_scale), 3),
@@ -634,7 +677,11 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
                 "dropped_classes": {str(k): v for k, v in sorted(dropped.items())} or None,
                 "outlier_points": outliers or None, "gap_trees": gap_trees,
                 "planting_detected": planting or None, "planting_tiles": len(lattices),
-                "table": None, "tree_ids": tree_ids}
+                **({"row_azimuth": srow["row_azimuth"], "planting_positions": stock["expected"],
+                    "missing_trees": stock["missing"],
+                    "stocking_pct": round(srow["stocking_pct"], 2) if stock["expected"] else None}
+                   if p.spacing is not None else {}),
+                "table": None, "tree_ids": ids_all}
 
 
 def chm_tile(tile: Tile, catalog: Catalog, opts: dict) -> dict:

@@ -133,6 +133,48 @@ def test_tiles_look_for_a_planting_lattice_as_one_file_does(tmp_path):
     assert summary.gap_trees[0] == tiled["gap_trees"] and summary.planting_tiles[0] == 6
 
 
+def test_plantation_mode_in_tiles_reports_the_stocking_of_one_file(tmp_path):
+    """-spacing in 6 tiles: each tile fits the lattice with its buffer and counts the planting
+    positions of its core, so the stand's positions, missing trees, stocking and gaps are those
+    of the whole file."""
+    from pyproj import CRS as PCRS
+
+    from lidartrees_gis.pipeline import trees_file
+    from lidartrees_gis.synthetic import CRS as SCRS
+    from lidartrees_gis.synthetic import StandParams, make_stand
+    from lidartrees_gis.trees import TreeParams
+
+    pts, truth = make_stand(StandParams(seed=3, density=4.0))
+    f = tmp_path / "stand.laz"
+    write_points(f, pts.x, pts.y, pts.z, crs=PCRS.from_user_input(SCRS),
+                 classification=pts.classification)
+    p = TreeParams(spacing=(3.0, 2.0))
+    whole = trees_file(f, tmp_path / "one.gpkg", params=p)
+    out = tmp_path / "tiled.gpkg"
+    assert main(["trees", str(f), str(out), "-spacing", "3x2", "-tile_size", "30", "-q"]) == 0
+    s = pyogrio.read_dataframe(out, layer="summary").iloc[0]
+    assert s.tiles == 6 and s.spacing == "3x2"
+    assert s.planting_positions == whole["planting_positions"] == 600
+    assert s.missing_trees == whole["missing_trees"]
+    assert s.stocking_pct == pytest.approx(whole["stocking_pct"], abs=0.01)
+    assert s.trees == whole["trees"] and s.gap_trees > 0
+    assert abs(s.row_azimuth - whole["row_azimuth"]) < 0.5
+    gaps = pyogrio.read_dataframe(out, layer="gaps")
+    one = pyogrio.read_dataframe(tmp_path / "one.gpkg", layer="gaps")
+    assert len(gaps) == len(one) == s.missing_trees and gaps.gap_id.is_unique
+    d = np.hypot(gaps.x.to_numpy()[:, None] - one.x.to_numpy()[None, :],
+                 gaps.y.to_numpy()[:, None] - one.y.to_numpy()[None, :]).min(axis=1)
+    assert (d < 0.5).all()  # the same empty positions
+    assert pyogrio.read_info(out, layer="gaps")["crs"] == "EPSG:29194"
+    # sparse points: the stocking is under-reported, as for one file
+    pts, _ = make_stand(StandParams(seed=3, density=2.0))
+    sparse = tmp_path / "sparse.laz"
+    write_points(sparse, pts.x, pts.y, pts.z, crs=PCRS.from_user_input(SCRS),
+                 classification=pts.classification)
+    with pytest.warns(Warning, match="under-reported"):
+        trees_tiled(sparse, tmp_path / "sparse.gpkg", params=p, tile_size=30, workers=1)
+
+
 def test_dask_cluster_gives_the_same_trees(split_stand, tmp_path):
     pytest.importorskip("dask.distributed")
     d, _, _ = split_stand
