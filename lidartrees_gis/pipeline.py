@@ -594,11 +594,7 @@ def trees_frames(result: dict, spec: GridSpec, nln: str = ""):
     st = result.get("stocking")
     if st is not None:
         g = st["grid"]
-        row.update({"spacing": f"{g.row_spacing:g}x{g.tree_spacing:g}", "row_azimuth": g.azimuth,
-                    "planting_positions": st["expected"], "stocked_positions": st["stocked"],
-                    "missing_trees": st["missing"], "extra_tops": st["extra"],
-                    "stocking_pct": st["stocking_pct"], "planted_per_ha": st["planted_per_ha"],
-                    "planted_area_ha": st["planted_area_ha"]})
+        row.update(stocking_fields((g.row_spacing, g.tree_spacing), g.azimuth, st))
         gaps = gpd.GeoDataFrame(
             {"gap_id": np.arange(1, st["missing"] + 1, dtype=np.int64),
              "row_index": st["gaps_j"], "position_in_row": st["gaps_i"],
@@ -607,6 +603,19 @@ def trees_frames(result: dict, spec: GridSpec, nln: str = ""):
         layers[f"{nln}gaps"] = gaps
     summary = pd.DataFrame([row])
     return {f"{nln}tree_tops": tops, f"{nln}crowns": crowns, **layers, f"{nln}summary": summary}
+
+
+def stocking_fields(spacing, azimuth: float, st: dict) -> dict:
+    """The summary fields of plantation mode from the counts of
+    :func:`lidartrees_gis.stocking.stocking` (``expected, stocked, missing, extra,
+    planted_area_ha``; summed over the tiles of a tiled run)."""
+    e = st["expected"]
+    return {"spacing": f"{spacing[0]:g}x{spacing[1]:g}", "row_azimuth": azimuth,
+            "planting_positions": e, "stocked_positions": st["stocked"],
+            "missing_trees": st["missing"], "extra_tops": st["extra"],
+            "stocking_pct": 100.0 * st["stocked"] / e if e else float("nan"),
+            "planted_per_ha": 1e4 / (spacing[0] * spacing[1]),
+            "planted_area_ha": st["planted_area_ha"]}
 
 
 def nice_step(span: float, classes: int = 6) -> float:

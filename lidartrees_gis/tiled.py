@@ -202,8 +202,8 @@ def tile_trees(tile: Tile, catalog: Catalog, params, opts: dict) -> dict:
     if s is None:
         cols = ("tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_cells")
         return {**{c: np.empty(0, np.int64 if c in ("tree_id", "n_cells") else np.float64)
-                   for c in cols}, "wkb": [], "top_wkb": [], "gap_trees": 0, "planting": None, "stocking": None,
-                "chm": np.empty((0, 0), np.float32),
+                   for c in cols}, "wkb": [], "top_wkb": [], "gap_trees": 0, "planting": None,
+                "stocking": None, "chm": np.empty((0, 0), np.float32),
                 "chm_left": tile.core[0], "chm_top": tile.core[3], "res": opts["res"],
                 "canopy_cells": 0, "points": 0, "dropped": {}, "outlier_points": 0,
                 "tile": tile.index}
@@ -261,9 +261,9 @@ def tile_trees(tile: Tile, catalog: Catalog, params, opts: dict) -> dict:
 
 #: below this many points a run stays in the calling process unless ``workers`` or
 #: ``scheduler`` say otherwise: starting a local cluster (0.6 s forked, 1.2 s spawned) costs
-#: more than the second core saves. Measured on 2 cores with forked workers, Megaplot copies: 0.16 M points 1.5-1.6 s
-#: in one process, 2.0 s on two workers; 0.49 M 2.2 / 2.3-2.5 s; 0.98 M 3.4-3.6 / 3.0-3.4 s;
-#: 2.0 M 6.0 / 4.9 s (spawned workers: 3.2 s at 0.16 M)
+#: more than the second core saves. Measured on 2 cores with forked workers, Megaplot copies:
+#: 0.16 M points 1.5-1.6 s in one process, 2.0 s on two workers; 0.49 M 2.2 / 2.3-2.5 s;
+#: 0.98 M 3.4-3.6 / 3.0-3.4 s; 2.0 M 6.0 / 4.9 s (spawned workers: 3.2 s at 0.16 M)
 LOCAL_BELOW_POINTS = 1_000_000
 
 
@@ -499,7 +499,7 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
     from .grid import GridSpec
     from .io.output import atomic_output, check_outputs
     from .metrics import tree_ids
-    from .pipeline import warn_sparse_plantation
+    from .pipeline import stocking_fields, warn_sparse_plantation
     from .progress import SubProgress
     from .trees import TreeParams
 
@@ -635,6 +635,8 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
                 empty["method"] = pd.Series([], dtype=object)
                 put(gpd.GeoDataFrame(empty, geometry=gpd.GeoSeries([], crs=crs)), names["tops"], "Point")
                 put(gpd.GeoDataFrame(empty, geometry=gpd.GeoSeries([], crs=crs)), names["crowns"], "Polygon")
+            if p.spacing is not None and names["gaps"] not in created:  # no empty position
+                put_gaps({"gaps_x": [], "gaps_y": [], "gaps_i": [], "gaps_j": []}, ())
             area_ha = canopy * res * res / 1e4
             # the median spacings of the tiles that found a planting lattice under their tops
             planting = ("{:.2f}x{:.2f}".format(*np.median(np.asarray(lattices), axis=0))
@@ -652,15 +654,8 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
                 "dropped_classes": ",".join(f"{c}:{v}" for c, v in sorted(dropped.items())),
                 "gap_trees": gap_trees, "planting_detected": planting, "planting_tiles": len(lattices)}
             if p.spacing is not None:  # plantation mode: the stocking of all tiles
-                e = stock["expected"]
-                srow.update({
-                    "spacing": f"{p.spacing[0]:g}x{p.spacing[1]:g}",
-                    "row_azimuth": float(np.median(azimuths)) if azimuths else np.nan,
-                    "planting_positions": e, "stocked_positions": stock["stocked"],
-                    "missing_trees": stock["missing"], "extra_tops": stock["extra"],
-                    "stocking_pct": 100.0 * stock["stocked"] / e if e else np.nan,
-                    "planted_per_ha": 1e4 / (p.spacing[0] * p.spacing[1]),
-                    "planted_area_ha": stock["planted_area_ha"]})
+                srow.update(stocking_fields(
+                    p.spacing, float(np.median(azimuths)) if azimuths else np.nan, stock))
             summary = pd.DataFrame([srow])
             with warnings.catch_warnings():
                 warnings.filterwarnings("ignore", message=".*geometry.*")
