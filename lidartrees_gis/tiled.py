@@ -100,9 +100,12 @@ def _window_edge(box, catalog: Catalog, opts: dict, res: float) -> float:
 
 
 def _window_density(box, catalog: Catalog, opts: dict) -> float:
-    """Points per m² inside ``box``, over the 1 m cells that hold points (so edges, gaps
-    between files and a file's empty corners do not count)."""
-    from .pipeline import parse_classes
+    """Points per m² inside ``box``, over the cells of
+    :data:`~lidartrees_gis.pipeline.FOOTPRINT_CELL` (aligned on the box) that hold points, so edges, gaps between files and a file's empty
+    corners do not count: the rule of one file's ``-tr auto``. (Over 1 m cells sparse data
+    looked denser than it is, as a 1 m cell is often empty: 1.73 points/m² for Topography's
+    1.0, and 0.75 m cells instead of one file's 1.0 m.)"""
+    from .pipeline import FOOTPRINT_CELL, parse_classes
 
     src = TileSource(catalog, box)
     src.set_class_filter(drop=parse_classes(opts["drop_class"]) or (),
@@ -110,9 +113,10 @@ def _window_density(box, catalog: Catalog, opts: dict) -> float:
     n, cells = 0, set()
     for c in src.chunks():
         n += len(c)
-        cells.update(np.unique(np.floor(c.x).astype(np.int64) * 10_000_019
-                               + np.floor(c.y).astype(np.int64)).tolist())
-    return n / len(cells) if cells else float("nan")
+        gx = np.floor((c.x - box[0]) / FOOTPRINT_CELL).astype(np.int64)
+        gy = np.floor((c.y - box[1]) / FOOTPRINT_CELL).astype(np.int64)
+        cells.update(np.unique(gx * 10_000_019 + gy).tolist())
+    return n / (len(cells) * FOOTPRINT_CELL ** 2) if cells else float("nan")
 
 
 def _window_canopy(box, catalog: Catalog, opts: dict, min_height: float, want_scale: bool):
@@ -136,8 +140,8 @@ def area_parameters(catalog: Catalog, res, params, opts: dict, *, window: float 
     """Cell size, crown scale and dominant height of the whole area, measured once.
 
     They are measured on up to nine ``window``-metre squares centred on a 3 x 3 grid over the
-    area (windows without points or canopy are skipped): the median point density over the 1 m
-    cells holding points gives the cell size; the medians of the windows' crown scales and
+    area (windows without points or canopy are skipped): the median point density over the 3 m
+    cells holding points gives the cell size (as for one file); the medians of the windows' crown scales and
     95th percentiles of canopy height give the crown scale and the dominant height. They
     depend on the points only, not on how the area is tiled or split into files. The windows
     are measured as tasks of ``runner`` (a :class:`TileRunner`; default: in this process).
