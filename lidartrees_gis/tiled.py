@@ -279,23 +279,32 @@ def default_workers(workers, scheduler, count: int):
     return 1 if count < LOCAL_BELOW_POINTS else None
 
 
+#: a process using more memory than this (bytes) spawns its local workers instead of forking
+#: them: a forked worker's resident size counts the pages it shares with this process, and
+#: Dask's memory monitor would take them for the worker's own (the command itself uses about
+#: 300 MB when it starts the cluster)
+FORK_MAX_RSS = 1 << 30
+
+
 def worker_start_method() -> str:
     """How a local cluster starts its worker processes: Dask's own setting when it is not the
-    default ``spawn``; else ``fork`` where it is safe (Linux, no other Python thread and no Qt in
-    this process: the workers inherit its imported library instead of starting a new
-    interpreter and importing it again, which on 2 cores took CPU from the tiles), else
-    ``spawn``. Measured at 16 M points on 2 workers: 26.1-26.8 s forked, 27.6-27.8 s spawned
-    (the workers' CPU 44.7-44.8 s against 46.0-47.5 s)."""
+    default ``spawn``; else ``fork`` where it is safe (Linux, no other Python thread, no Qt and
+    less than :data:`FORK_MAX_RSS` resident in this process: the workers inherit its imported
+    library instead of starting a new interpreter and importing it again, which on 2 cores took
+    CPU from the tiles), else ``spawn``. Measured at 16 M points on 2 workers: 26.1-26.8 s
+    forked, 27.6-27.8 s spawned (the workers' CPU 44.7-44.8 s against 46.0-47.5 s)."""
     import sys
     import threading
 
     import dask
+    import psutil
 
     method = dask.config.get("distributed.worker.multiprocessing-method", "spawn")
     if method != "spawn":
         return method
     safe = (sys.platform.startswith("linux") and threading.active_count() == 1
-            and not any(m in sys.modules for m in ("PyQt5", "PyQt6", "qgis")))
+            and not any(m in sys.modules for m in ("PyQt5", "PyQt6", "qgis"))
+            and psutil.Process().memory_info().rss < FORK_MAX_RSS)
     return "fork" if safe else "spawn"
 
 

@@ -296,13 +296,17 @@ def test_the_cli_progress_bar_starts_no_thread():
     bar.close()
 
 
-def test_worker_start_method_keeps_a_configured_one():
+def test_worker_start_method_keeps_a_configured_one_and_spawns_from_a_large_process(
+        monkeypatch):
     import dask
 
-    from lidartrees_gis.tiled import worker_start_method
+    from lidartrees_gis import tiled
 
     with dask.config.set({"distributed.worker.multiprocessing-method": "forkserver"}):
-        assert worker_start_method() == "forkserver"
+        assert tiled.worker_start_method() == "forkserver"
+    # a process holding much memory: forked workers would look as large to Dask's monitor
+    monkeypatch.setattr(tiled, "FORK_MAX_RSS", 1)
+    assert tiled.worker_start_method() == "spawn"
 
 
 def test_laz_is_decompressed_on_one_thread_inside_a_dask_worker():
