@@ -193,14 +193,11 @@ def _chm(input, output, **kw):
     if tiled:
         from .tiled import chm_tiled
 
-        if kw.get("dsm_out"):
-            from .errors import InputError
-
-            raise InputError("-dsm_out is not written by tiled runs yet; use -tile_size none")
         return chm_tiled(input, output, tile_size=ts, **_tile_kw(kw), res=kw.get("res") or "auto",
                          dtm=kw.get("dtm") or "auto", chm=kw.get("chm") or "pitfree",
                          outliers=not kw.get("keep_outliers"), **_classes(kw),
                          fill=kw.get("fill") or "mean8", dtm_out=kw.get("dtm_out"),
+                         dsm_out=kw.get("dsm_out"),
                          creation_options=_co(kw),
                          overwrite=bool(kw.get("overwrite")), a_srs=kw.get("a_srs"),
                          progress=kw.get("progress"),

@@ -693,12 +693,12 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
 
 
 def chm_tile(tile: Tile, catalog: Catalog, opts: dict) -> dict:
-    """The core window of one tile's CHM (and DTM)."""
+    """The core window of one tile's CHM, DTM and (``opts["return_dsm"]``) DSM."""
     s = _surfaces(catalog, tile.box, opts)
+    e = np.empty((0, 0), np.float32)
     if s is None:
-        e = np.empty((0, 0), np.float32)
-        return {"chm": e, "dtm": e, "left": tile.core[0], "top": tile.core[3], "points": 0,
-                "dropped": {}, "outlier_points": 0}
+        return {"chm": e, "dtm": e, "dsm": e, "left": tile.core[0], "top": tile.core[3],
+                "points": 0, "dropped": {}, "outlier_points": 0}
     spec = s["spec"]
     x0, y0, x1, y1 = tile.core
     c0 = max(0, int(math.floor((x0 - spec.left) / spec.res + 1e-9)))
@@ -707,14 +707,15 @@ def chm_tile(tile: Tile, catalog: Catalog, opts: dict) -> dict:
     r1 = min(spec.height, int(math.ceil((spec.top - y0) / spec.res - 1e-9)))
     return {"chm": s["chm"][r0:r1, c0:c1].astype(np.float32),
             "dtm": s["dtm"][r0:r1, c0:c1].astype(np.float32),
+            "dsm": s["dsm"][r0:r1, c0:c1].astype(np.float32) if opts.get("return_dsm") else e,
             "left": spec.left + c0 * spec.res, "top": spec.top - r0 * spec.res,
             "points": s["points"], "dropped": s["dropped"], "outlier_points": s["outlier_points"]}
 
 
 def chm_tiled(input, output, *, tile_size=None, buffer=None, workers=None, scheduler=None,
-              dtm_out=None, overwrite=False, creation_options=None, a_srs=None, progress=None,
-              read_kw=None, **kw) -> dict:
-    """``lidartrees chm`` over many files: a CHM (and DTM) mosaic, tile by tile."""
+              dtm_out=None, dsm_out=None, overwrite=False, creation_options=None, a_srs=None,
+              progress=None, read_kw=None, **kw) -> dict:
+    """``lidartrees chm`` over many files: a CHM (and DTM, DSM) mosaic, tile by tile."""
     import contextlib
 
     from .crs import crs_label
@@ -722,10 +723,11 @@ def chm_tiled(input, output, *, tile_size=None, buffer=None, workers=None, sched
     from .io.output import atomic_output, check_outputs
     from .progress import SubProgress
 
-    check_outputs([(output, "OUTPUT"), (dtm_out, "-dtm_out")], (), overwrite)
+    outputs = [(output, "OUTPUT"), (dtm_out, "-dtm_out"), (dsm_out, "-dsm_out")]
+    check_outputs(outputs, (), overwrite)
     prog = as_progress(progress)
     catalog = Catalog.open(input, a_srs=a_srs, **(read_kw or {}))
-    check_outputs([(output, "OUTPUT"), (dtm_out, "-dtm_out")], catalog.files, overwrite)
+    check_outputs(outputs, catalog.files, overwrite)
     opts = _options(kw)
     from .trees import TreeParams
 
@@ -752,11 +754,19 @@ def chm_tiled(input, output, *, tile_size=None, buffer=None, workers=None, sched
                 dmos = MosaicWriter(dtmp, gspec, creation_options=creation_options, tags=tags,
                                     description="terrain height (m)")
                 stack.callback(dmos.close)
-            for r in runner.map(chm_tile, tiles, (catalog, opts),
+            smos = None
+            if dsm_out:
+                stmp = stack.enter_context(atomic_output(dsm_out, overwrite, param="-dsm_out"))
+                smos = MosaicWriter(stmp, gspec, creation_options=creation_options, tags=tags,
+                                    description="surface height (m)")
+                stack.callback(smos.close)
+            for r in runner.map(chm_tile, tiles, (catalog, {**opts, "return_dsm": bool(dsm_out)}),
                                 progress=SubProgress(prog, 0.02, 0.98)):
                 mos.write(r["chm"], r["left"], r["top"])
                 if dmos is not None:
                     dmos.write(r["dtm"], r["left"], r["top"])
+                if smos is not None:
+                    smos.write(r["dsm"], r["left"], r["top"])
                 points += r["points"]
                 outliers += r["outlier_points"] or 0
                 for k, v in r["dropped"].items():

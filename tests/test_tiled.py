@@ -337,15 +337,17 @@ def test_laz_is_decompressed_on_one_thread_inside_a_dask_worker():
 def test_chm_mosaic_is_seamless(split_stand, tmp_path):
     d, _, _ = split_stand
     assert main(["chm", str(d), str(tmp_path / "m.tif"), "-tile_size", "20", "-workers", "1",
-                 "-dtm_out", str(tmp_path / "d.tif"), "-q"]) == 0
-    assert main(["chm", str(d), str(tmp_path / "one.tif"), "-tile_size", "none", "-workers", "1",
+                 "-dtm_out", str(tmp_path / "d.tif"), "-dsm_out", str(tmp_path / "s.tif"),
                  "-q"]) == 0
-    with rasterio.open(tmp_path / "m.tif") as a, rasterio.open(tmp_path / "one.tif") as b:
-        assert a.crs.to_epsg() == 29194 and a.transform == b.transform and a.shape == b.shape
-        x, y = a.read(1, masked=True), b.read(1, masked=True)
-        assert (x.mask == y.mask).all()
-        np.testing.assert_allclose(x.compressed(), y.compressed(), atol=1e-4)
-        assert a.profile["tiled"]
+    assert main(["chm", str(d), str(tmp_path / "one.tif"), "-tile_size", "none", "-workers", "1",
+                 "-dsm_out", str(tmp_path / "one_s.tif"), "-q"]) == 0
+    for tiled, whole in (("m.tif", "one.tif"), ("s.tif", "one_s.tif")):  # CHM, DSM
+        with rasterio.open(tmp_path / tiled) as a, rasterio.open(tmp_path / whole) as b:
+            assert a.crs.to_epsg() == 29194 and a.transform == b.transform and a.shape == b.shape
+            x, y = a.read(1, masked=True), b.read(1, masked=True)
+            assert (x.mask == y.mask).all() and x.count() > 1000
+            np.testing.assert_allclose(x.compressed(), y.compressed(), atol=1e-4)
+            assert a.profile["tiled"]
     assert (tmp_path / "d.tif").exists()
 
 
