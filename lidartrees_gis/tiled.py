@@ -693,11 +693,12 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
 
 
 def chm_tile(tile: Tile, catalog: Catalog, opts: dict) -> dict:
-    """The core window of one tile's CHM, DTM and (``opts["return_dsm"]``) DSM."""
+    """The core window of one tile's surfaces named in ``opts["surfaces"]`` (``chm``, ``dtm``,
+    ``dsm``)."""
     s = _surfaces(catalog, tile.box, opts)
-    e = np.empty((0, 0), np.float32)
     if s is None:
-        return {"chm": e, "dtm": e, "dsm": e, "left": tile.core[0], "top": tile.core[3],
+        e = np.empty((0, 0), np.float32)
+        return {**{k: e for k in opts["surfaces"]}, "left": tile.core[0], "top": tile.core[3],
                 "points": 0, "dropped": {}, "outlier_points": 0}
     spec = s["spec"]
     x0, y0, x1, y1 = tile.core
@@ -705,9 +706,7 @@ def chm_tile(tile: Tile, catalog: Catalog, opts: dict) -> dict:
     c1 = min(spec.width, int(math.ceil((x1 - spec.left) / spec.res - 1e-9)))
     r0 = max(0, int(math.floor((spec.top - y1) / spec.res + 1e-9)))
     r1 = min(spec.height, int(math.ceil((spec.top - y0) / spec.res - 1e-9)))
-    return {"chm": s["chm"][r0:r1, c0:c1].astype(np.float32),
-            "dtm": s["dtm"][r0:r1, c0:c1].astype(np.float32),
-            "dsm": s["dsm"][r0:r1, c0:c1].astype(np.float32) if opts.get("return_dsm") else e,
+    return {**{k: s[k][r0:r1, c0:c1].astype(np.float32) for k in opts["surfaces"]},
             "left": spec.left + c0 * spec.res, "top": spec.top - r0 * spec.res,
             "points": s["points"], "dropped": s["dropped"], "outlier_points": s["outlier_points"]}
 
@@ -744,29 +743,19 @@ def chm_tiled(input, output, *, tile_size=None, buffer=None, workers=None, sched
                 "LIDARTREES_PARAMETERS": {**opts, "tiles": len(tiles), "buffer": buf}}
         points, dropped, outliers = 0, {}, 0
         with contextlib.ExitStack() as stack:
-            tmp = stack.enter_context(atomic_output(output, overwrite))
-            mos = MosaicWriter(tmp, gspec, creation_options=creation_options, tags=tags,
-                               description="canopy height (m)")
-            stack.callback(mos.close)
-            dmos = None
-            if dtm_out:
-                dtmp = stack.enter_context(atomic_output(dtm_out, overwrite, param="-dtm_out"))
-                dmos = MosaicWriter(dtmp, gspec, creation_options=creation_options, tags=tags,
-                                    description="terrain height (m)")
-                stack.callback(dmos.close)
-            smos = None
-            if dsm_out:
-                stmp = stack.enter_context(atomic_output(dsm_out, overwrite, param="-dsm_out"))
-                smos = MosaicWriter(stmp, gspec, creation_options=creation_options, tags=tags,
-                                    description="surface height (m)")
-                stack.callback(smos.close)
-            for r in runner.map(chm_tile, tiles, (catalog, {**opts, "return_dsm": bool(dsm_out)}),
+            mosaics = {}  # surface -> its mosaic, for the outputs asked for
+            for key, path, param, what in (("chm", output, "OUTPUT", "canopy height (m)"),
+                                           ("dtm", dtm_out, "-dtm_out", "terrain height (m)"),
+                                           ("dsm", dsm_out, "-dsm_out", "surface height (m)")):
+                if path:
+                    tmp = stack.enter_context(atomic_output(path, overwrite, param=param))
+                    mosaics[key] = MosaicWriter(tmp, gspec, creation_options=creation_options,
+                                                tags=tags, description=what)
+                    stack.callback(mosaics[key].close)
+            for r in runner.map(chm_tile, tiles, (catalog, {**opts, "surfaces": tuple(mosaics)}),
                                 progress=SubProgress(prog, 0.02, 0.98)):
-                mos.write(r["chm"], r["left"], r["top"])
-                if dmos is not None:
-                    dmos.write(r["dtm"], r["left"], r["top"])
-                if smos is not None:
-                    smos.write(r["dsm"], r["left"], r["top"])
+                for key, mos in mosaics.items():
+                    mos.write(r[key], r["left"], r["top"])
                 points += r["points"]
                 outliers += r["outlier_points"] or 0
                 for k, v in r["dropped"].items():
