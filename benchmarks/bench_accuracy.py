@@ -31,11 +31,11 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 DATA = ROOT.parent / "shared" / "data"
 
-from lidartrees_gis.evaluate import evaluate_trees  # noqa: E402
-from lidartrees_gis.io.points import PointChunk  # noqa: E402
-from lidartrees_gis.pipeline import trees_file  # noqa: E402
-from lidartrees_gis.synthetic import CRS, StandParams, make_stand, write_xyz_seed_dialect  # noqa: E402
-from lidartrees_gis.trees import TreeParams  # noqa: E402
+from lidartrees_gis.report.evaluate import evaluate_trees
+from lidartrees_gis.io.points import PointChunk
+from lidartrees_gis.als.pipeline import trees_file
+from lidartrees_gis.synthetic import CRS, StandParams, make_stand, write_xyz_seed_dialect
+from lidartrees_gis.als.trees import TreeParams
 
 #: what the issue reports for lidR on the same data
 LIDR = {"mixedconifer_trees": 205, "neon_one_top_share": 0.41, "neon_outside_share": 0.41}

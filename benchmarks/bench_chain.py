@@ -64,7 +64,7 @@ def run_chain(folder: Path, out: Path, workers: int) -> dict:
     # single CPU, so the parallel LAZ decompressor cannot borrow the second core
     code = ("import sys, json, time, os; sys.path.insert(0, %r)\n"
             + ("os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})\n" if workers == 1 else "")
-            + "from lidartrees_gis.tiled import trees_tiled\n"
+            + "from lidartrees_gis.als.tiled import trees_tiled\n"
             "t = time.perf_counter()\n"
             "r = trees_tiled(%r, %r, workers=%d, overwrite=True)\n"
             "import resource\n"
@@ -154,7 +154,7 @@ def run_r_chain(pkg: str, folder: Path, res: float = 0.5) -> dict:
 
 
 def bcts_equality(tmp: Path) -> dict:
-    from lidartrees_gis.tiled import trees_tiled
+    from lidartrees_gis.als.tiled import trees_tiled
 
     files = sorted((DATA / "lasR_bcts").glob("bcts_*.laz"))
     if len(files) < 4:

@@ -20,9 +20,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 DATA = ROOT.parent / "shared" / "data"
 
-from lidartrees_gis import _accel  # noqa: E402
-from lidartrees_gis.grid import GridAccumulator, GridSpec  # noqa: E402
-from lidartrees_gis.pipeline import chm_file  # noqa: E402
+from lidartrees_gis import _accel
+from lidartrees_gis.grid import GridAccumulator, GridSpec
+from lidartrees_gis.als.pipeline import chm_file
 
 
 def best_of(fn, n=3):

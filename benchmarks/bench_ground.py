@@ -31,11 +31,11 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 DATA = ROOT.parent / "shared" / "data"
 
-from lidartrees_gis.errors import InputError  # noqa: E402
-from lidartrees_gis.grid import GridSpec, interpolate_tin  # noqa: E402
-from lidartrees_gis.ground import (KrausPfeifer, filter_errors, kraus_pfeifer,  # noqa: E402
-                                   low_points)
-from lidartrees_gis.io.points import open_points  # noqa: E402
+from lidartrees_gis.errors import InputError
+from lidartrees_gis.grid import GridSpec
+from lidartrees_gis.tin import interpolate_tin
+from lidartrees_gis.ground.filter import KrausPfeifer, filter_errors, kraus_pfeifer, low_points
+from lidartrees_gis.io.points import open_points
 
 SAMPLES = ["samp11", "samp21", "samp23", "samp31", "samp41", "samp51", "samp53", "samp61"]
 FOREST = ["lidR_extdata/Topography.laz", "lasR_bcts/bcts_1.laz", "neon_teak_dev/TEAK_043.laz",
@@ -179,7 +179,7 @@ def main():
                          "canopy_as_ground_pct": round(100 * float((gr & ~ref).sum() / (~ref).sum()), 2)}
         gw[f"{g:g},{w:g}"] = row
     res["demo_stand_g_w"] = gw
-    from lidartrees_gis.pipeline import dtm_quality_file
+    from lidartrees_gis.ground.quality import dtm_quality_file
     from lidartrees_gis.synthetic import CRS
 
     with tempfile.TemporaryDirectory() as d:

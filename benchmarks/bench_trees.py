@@ -20,8 +20,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 DATA = ROOT.parent / "shared" / "data"
 
-from lidartrees_gis.grid import GridSpec  # noqa: E402
-from lidartrees_gis.trees import METHODS, TreeParams, detect_trees  # noqa: E402
+from lidartrees_gis.grid import GridSpec
+from lidartrees_gis.als.trees import METHODS, TreeParams, detect_trees
 
 
 def synthetic_chm(n: int, res: float = 0.2, seed: int = 0) -> np.ndarray:
@@ -57,7 +57,8 @@ def time_methods(n: int, repeat: int) -> dict:
 
 
 def neon_boxes() -> dict:
-    from lidartrees_gis.pipeline import compute_surfaces, open_input
+    from lidartrees_gis.als.pipeline import compute_surfaces
+    from lidartrees_gis.io.options import open_input
 
     boxes_f = DATA / "neon_teak_dev" / "teak_crowns_utm11n.csv"
     if not boxes_f.exists():

@@ -1,5 +1,8 @@
 """lidartrees_gis: LiDAR point clouds of planted forests to canopy height rasters, tree tops,
-crowns and stand summaries (GeoTIFF, GeoPackage) for QGIS, the command line and Python."""
+crowns and stand summaries (GeoTIFF, GeoPackage) for QGIS, the command line and Python.
+
+The Python API (:mod:`lidartrees_gis.api`) is loaded on first use, so that ``import
+lidartrees_gis`` and the command table stay light (no numpy, GDAL or GEOS)."""
 
 __version__ = "0.1.0"
 
@@ -7,8 +10,15 @@ from .errors import (  # noqa: E402
     Cancelled, CRSError, InputError, LidarTreesError, OutputExistsError, ReadError,
 )
 
-from .api import canopy_height, classify_ground, find_trees, raster_profile  # noqa: E402
+_API = ("canopy_height", "find_trees", "classify_ground", "raster_profile")
 
 __all__ = ["__version__", "LidarTreesError", "InputError", "ReadError", "CRSError",
-           "OutputExistsError", "Cancelled", "canopy_height", "find_trees", "classify_ground",
-           "raster_profile"]
+           "OutputExistsError", "Cancelled", *_API]
+
+
+def __getattr__(name):
+    if name in _API:
+        from . import api
+
+        return getattr(api, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -40,7 +40,8 @@ def canopy_height(input, *, res="auto", dtm="auto", chm="pitfree", fill="mean8",
     profile : dict
         rasterio profile (CRS, transform, nodata) to write or to place the array.
     """
-    from .pipeline import compute_surfaces, open_filtered
+    from .als.pipeline import compute_surfaces
+    from .io.options import open_filtered
 
     src = open_filtered(input, a_srs=a_srs, t_srs=t_srs, drop_class=drop_class,
                         keep_class=keep_class, **read_kw)
@@ -69,8 +70,8 @@ def find_trees(input, *, params=None, res="auto", dtm="auto", chm="pitfree", fil
     summary : dict
         The stand summary (trees, trees per ha, mean height, crown scale, stocking ...).
     """
-    from .pipeline import detect_with_stocking, load_chm, trees_frames
-    from .trees import TreeParams
+    from .als.pipeline import detect_with_stocking, load_chm, trees_frames
+    from .als.trees import TreeParams
 
     p = params or TreeParams()
     arr, spec, _, built = load_chm(input, res=res, dtm=dtm, chm=chm, fill=fill,
@@ -93,7 +94,8 @@ def classify_ground(input, *, params=None, a_srs=None, t_srs=None, progress=None
         x, y, z (and classification, returns when the file has them).
     ground : (N,) ndarray of bool
     """
-    from .pipeline import ground_points, open_input
+    from .ground.chain import ground_points
+    from .io.options import open_input
 
     src = open_input(input, a_srs=a_srs, t_srs=t_srs, **read_kw)
     return ground_points(src, params, progress)

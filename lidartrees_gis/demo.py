@@ -7,7 +7,7 @@ import numpy as np
 
 from .errors import OutputExistsError
 from .io.raster import read_raster
-from .pipeline import chm_file, trees_file
+from .als.pipeline import chm_file, trees_file
 from .progress import SubProgress, as_progress
 from .synthetic import CRS, make_stand, write_truth_csv, write_xyz_seed_dialect
 
@@ -21,7 +21,7 @@ def run_demo(outdir="lidartrees_demo", *, overwrite=False, progress=None) -> dic
     against the truth as ``lidartrees evaluate`` does (Eysn et al. 2015 matching), plus the RMSE
     of the crown diameters against each tree's visible crown.
     """
-    from .evaluate import evaluate_trees
+    from .report.evaluate import evaluate_trees
 
     prog = as_progress(progress)
     out = Path(outdir)

@@ -2,7 +2,7 @@
 
 ``python -m lidartrees_gis.fuzz --cases 2000 --seed 0 --dir /tmp/fuzz`` builds the cases (a seeded
 mix of mutated XYZ text, LAS/LAZ with broken headers or records, compressed and non-point files
-and odd parameter values), runs each through ``lidartrees_gis.cli.main`` in a worker process (one
+and odd parameter values), runs each through ``lidartrees_gis.cli.app.main`` in a worker process (one
 process for many cases, restarted when a case kills it or runs over the time limit) and reports,
 per case, the exit code, the time, the last stderr line and whether the stderr held a traceback.
 
@@ -154,7 +154,7 @@ _BAD_ARGS = [["-tr", "0"], ["-tr", "-1"], ["-tr", "5e-324"], ["-tr", "nan"], ["-
 
 
 def _flags(command):
-    from .commands import COMMANDS
+    from .cli.commands import COMMANDS
 
     out = set()
     for p in COMMANDS[command].params:
@@ -238,7 +238,7 @@ def make_cases(n, seed, workdir):
 # running
 def _worker(conn):
     """Run cases sent over ``conn`` one by one (imports once)."""
-    from .cli import main
+    from .cli.app import main
 
     while True:
         case = conn.recv()

@@ -305,68 +305,6 @@ def data_footprint(occupied, res: float, distance: float = 2.0) -> np.ndarray:
     return d <= max(distance, res * 1.01)
 
 
-def resample_to(src_array, src_spec: GridSpec, spec: GridSpec) -> np.ndarray:
-    """Bilinear resampling of a raster (NaN = nodata) onto ``spec`` (e.g. an external DTM).
-
-    A source without a CRS is taken to be in ``spec``'s CRS.
-    """
-    from rasterio.warp import Resampling, reproject
-
-    from .io.raster import rio_crs
-
-    dst = np.full(spec.shape, np.nan, dtype=np.float64)
-    dcrs = rio_crs(spec.crs)
-    scrs = rio_crs(src_spec.crs) or dcrs
-    reproject(np.asarray(src_array, dtype=np.float64), dst, src_transform=src_spec.transform,
-              src_crs=scrs, dst_transform=spec.transform, dst_crs=dcrs or scrs,
-              resampling=Resampling.bilinear, src_nodata=np.nan, dst_nodata=np.nan)
-    return dst
-
-
-#: DTM triangles with a wider circumcircle are not used (cells there take the nearest point)
-DTM_MAX_RADIUS = 10.0
-
-
-def interpolate_tin(x, y, z, spec: GridSpec, *, max_radius: float = DTM_MAX_RADIUS) -> np.ndarray:
-    """Linear interpolation on the Delaunay triangulation of points, sampled at cell centres.
-
-    Triangles whose circumcircle is wider than ``max_radius`` (m) are not used (with numba), so
-    the surface at a cell depends only on the points within two radii (tiles agree with the
-    whole); cells outside the triangles take the value of the nearest point.
-    """
-    from scipy.interpolate import LinearNDInterpolator, NearestNDInterpolator
-
-    x, y, z = (np.asarray(a, float) for a in (x, y, z))
-    if x.size < 3:
-        if x.size == 0:
-            raise InputError("no points to interpolate a surface from")
-        return np.full(spec.shape, float(np.mean(z)))
-    if _accel.HAVE_NUMBA:  # compiled rasteriser; the same surface wherever the grid is cut
-        from .chm import tin_surface
-
-        lin = tin_surface(x, y, z, spec, max_radius=max_radius)
-        bad = np.isnan(lin)
-        if bad.any():  # outside the hull or under a wide triangle: the nearest point
-            from scipy.spatial import cKDTree
-
-            rows, cols = np.nonzero(bad)
-            cx, cy = spec.xy(rows, cols)
-            _, k = cKDTree(np.column_stack([x, y])).query(np.column_stack([cx, cy]))
-            lin[rows, cols] = z[k]
-        return lin
-    rows, cols = np.mgrid[0:spec.height, 0:spec.width]
-    cx, cy = spec.xy(rows.ravel(), cols.ravel())
-    pts = np.column_stack([x, y])
-    try:
-        lin = LinearNDInterpolator(pts, z)(cx, cy)
-    except Exception:  # noqa: BLE001 - collinear points: fall back to nearest
-        lin = np.full(cx.shape, np.nan)
-    bad = np.isnan(lin)
-    if bad.any():
-        lin[bad] = NearestNDInterpolator(pts, z)(cx[bad], cy[bad])
-    return lin.reshape(spec.shape)
-
-
 class LowestPoints:
     """The lowest point (x, y, z) of every cell, built chunk by chunk (for ``-dtm lowest:R``)."""
 
@@ -409,3 +347,48 @@ class LowestPoints:
         if m.any():
             m &= self.count >= min_share * np.median(self.count[m])
         return self.x[m], self.y[m], self.z[m]
+
+
+#: largest grid (cells) made in memory; larger areas go through tiles (about 30 bytes a cell)
+MAX_CELLS = 200_000_000
+
+
+def grid_spec_for(src, res: float, progress=None) -> GridSpec:
+    """The aligned grid that holds every point of ``src`` (a point source: its CRS, header
+    bounds, count or a scan): refused when its CRS is geographic
+    (cells must be metres) or when it would exceed :data:`MAX_CELLS`."""
+    from .crs import crs_label
+    from .errors import CRSError
+
+    crs = src.crs
+    if crs is not None and getattr(crs, "is_geographic", False):
+        raise CRSError(f"{src.path}: the points are in a geographic CRS ({crs_label(crs)}, "
+                       "degrees); grids need metres: give -t_srs with a projected CRS, e.g. "
+                       "-t_srs EPSG:31984 (SIRGAS 2000 / UTM 24S)")
+    b = src.header_bounds()
+    if b is None:
+        b = src.scan(progress).bounds
+    w, h = (b[2] - b[0]) / res, (b[3] - b[1]) / res
+    if w * h > MAX_CELLS:
+        raise InputError(
+            f"{src.path}: a {res:g} m grid over {b[2] - b[0]:.0f} x {b[3] - b[1]:.0f} m would hold "
+            f"{w * h:.3g} cells (limit {MAX_CELLS:.0e}); check -tr, or the extent (a wrong digit "
+            f"in a coordinate, or points far apart: x {b[0]:.2f}..{b[2]:.2f}, y {b[1]:.2f}.."
+            f"{b[3]:.2f}); large areas are processed in tiles with -tile_size")
+    n = src.count_hint
+    check_sparse(w * h, n, b, res, src.path)
+    return GridSpec.from_bounds(*b, res, crs=src.crs)
+
+
+def resolve_resolution(src, res, progress=None) -> float:
+    """A cell size in metres from ``res``: a number, or ``"auto"`` for seed 003's sqrt(1/n) from
+    the point density of ``src`` (a point source: its header's count and bounds, else a scan)."""
+    if res is None:
+        raise InputError("-tr: a resolution is required (a number in metres, or auto)")
+    if isinstance(res, str) and res.strip().lower() == "auto":
+        hb = src.header_bounds()
+        if hb is not None and src.count_hint:
+            return auto_resolution(src.count_hint, (hb[2] - hb[0]) * (hb[3] - hb[1]))
+        st = src.scan(progress)
+        return auto_resolution(st.count, st.area)
+    return check_resolution(res)

@@ -22,7 +22,7 @@ SETTING = "lidartrees/executable"
 
 def _ensure_path():
     try:
-        importlib.import_module("lidartrees_gis.commands")
+        importlib.import_module("lidartrees_gis.cli.commands")
     except ImportError:
         if os.path.isdir(os.path.join(HERE, "lidartrees_gis")) and HERE not in sys.path:
             sys.path.insert(0, HERE)
@@ -31,7 +31,7 @@ def _ensure_path():
 def commands():
     """The shared command table (lidartrees_gis.commands.COMMANDS)."""
     _ensure_path()
-    return importlib.import_module("lidartrees_gis.commands").COMMANDS
+    return importlib.import_module("lidartrees_gis.cli.commands").COMMANDS
 
 
 def find_executable():

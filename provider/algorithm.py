@@ -102,7 +102,7 @@ def fit_chm_classes(layer, classes: int = 6) -> list:
 
     from qgis.core import QgsRasterBandStats
 
-    from lidartrees_gis.pipeline import height_classes
+    from lidartrees_gis.report.classes import height_classes
 
     rend = layer.renderer()
     shader = getattr(rend, "shader", lambda: None)()
@@ -396,7 +396,7 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
         err = executable_error()
         if err:
             raise QgsProcessingException(err)
-        from lidartrees_gis.commands import command_args, command_line
+        from lidartrees_gis.cli.commands import command_args, command_line
 
         cmd = self.cmd
         kw = {p.name: self._value(p, parameters, context) for p in cmd.params if p.name != "json"}

@@ -47,7 +47,7 @@ def chm_items(top: float, classes: int = 6):
     sys.path.insert(0, str(HERE.parent))
     from provider.algorithm import chm_ramp_items
 
-    from lidartrees_gis.pipeline import height_classes
+    from lidartrees_gis.report.classes import height_classes
 
     return chm_ramp_items(height_classes(top, classes), [QColor(c) for c in CHM_COLOURS])
 

@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 
 from lidartrees_gis import _accel
-from lidartrees_gis.chm import (canopy_outliers, chm_resolution, crown_scale, pitfree_chm,
-                                tin_surface)
+from lidartrees_gis.als.chm import canopy_outliers, chm_resolution, crown_scale, pitfree_chm
+from lidartrees_gis.tin import tin_surface
 from lidartrees_gis.grid import GridSpec
 
 
@@ -117,7 +117,7 @@ def test_surfaces_do_not_depend_on_the_order_of_the_points(tmp_path):
     from pyproj import CRS
 
     from lidartrees_gis.io.lasout import write_points
-    from lidartrees_gis.pipeline import chm_file
+    from lidartrees_gis.als.pipeline import chm_file
 
     rng = np.random.default_rng(3)
     n_g, n_v = 6000, 12000
@@ -143,7 +143,7 @@ def test_surfaces_do_not_depend_on_the_order_of_the_points(tmp_path):
 def test_nanpercentile_last_is_numpys_nanpercentile():
     import warnings
 
-    from lidartrees_gis.chm import nanpercentile_last
+    from lidartrees_gis.als.chm import nanpercentile_last
 
     rng = np.random.default_rng(0)
     a = rng.random((40, 30, 25)) * 30
@@ -175,7 +175,8 @@ def test_compiled_triangulation_on_a_lattice_with_rows_and_coincident_points(mon
     """Points on an exact 0.5 m lattice (every four neighbours cocircular, long collinear
     rows), some repeated with another height: the compiled Bowyer-Watson triangulation must
     give the surface startinpy's (coincident points keep the highest) and Qhull's give."""
-    from lidartrees_gis import chm as chm_mod
+    from lidartrees_gis import tin as tin_mod
+    from lidartrees_gis.als import chm as chm_mod
 
     rng = np.random.default_rng(21)
     gx, gy = np.meshgrid(np.arange(0, 30, 0.5), np.arange(0, 20, 0.5))
@@ -200,7 +201,7 @@ def test_compiled_triangulation_on_a_lattice_with_rows_and_coincident_points(mon
     order = np.lexsort((-z, key))
     first = np.r_[True, key[order][1:] != key[order][:-1]]
     u = order[first]
-    monkeypatch.setattr(chm_mod, "_startinpy", lambda: None)
+    monkeypatch.setattr(tin_mod, "_startinpy", lambda: None)
     qhull = tin_surface(x[u], y[u], z[u], spec, max_radius=chm_mod.LOCAL_RADIUS)
     np.testing.assert_allclose(ours, qhull, atol=1e-9)
     rows, cols = np.mgrid[0:spec.height, 0:spec.width]
@@ -232,7 +233,8 @@ def test_compiled_triangulation_refuses_what_it_cannot_triangulate():
 def test_pitfree_from_one_triangulation_equals_one_triangulation_per_layer(monkeypatch):
     """The layers are built from the top down in one triangulation (each point inserted once);
     the CHM must equal the one from a separate triangulation of every layer."""
-    from lidartrees_gis import chm as chm_mod
+    from lidartrees_gis import tin as tin_mod
+    from lidartrees_gis.als import chm as chm_mod
 
     rng = np.random.default_rng(8)
     parts = []
@@ -251,7 +253,7 @@ def test_pitfree_from_one_triangulation_equals_one_triangulation_per_layer(monke
     monkeypatch.setattr(_accel, "layered_tin", lambda *a, **k: -2)
     fallback = pitfree_chm(x, y, z, spec, max_edge=(0.0, 0.6))
     # ... and Qhull, one triangulation per layer
-    monkeypatch.setattr(chm_mod, "_startinpy", lambda: None)
+    monkeypatch.setattr(tin_mod, "_startinpy", lambda: None)
     per_layer = pitfree_chm(x, y, z, spec, max_edge=(0.0, 0.6))
     for other in (fallback, per_layer):
         assert np.array_equal(np.isnan(one), np.isnan(other))

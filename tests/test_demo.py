@@ -26,8 +26,8 @@ def test_demo_chm_tops_sit_on_truth_trees(tmp_path):
     # measured as `lidartrees evaluate` does (Eysn et al. 2015 matching)
     import geopandas as gpd
 
-    from lidartrees_gis.evaluate import evaluate_file
-    from lidartrees_gis.trees import accuracy
+    from lidartrees_gis.report.evaluate import evaluate_file
+    from lidartrees_gis.report.evaluate import accuracy
 
     tops = gpd.read_file(out / "trees.gpkg", layer="tree_tops")
     assert tops.crs.to_epsg() == 29194

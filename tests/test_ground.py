@@ -2,8 +2,8 @@ import numpy as np
 import pytest
 
 from lidartrees_gis.errors import InputError
-from lidartrees_gis.ground import (KrausPfeifer, filter_errors, glcm, kp_weights, kraus_pfeifer,
-                                   pca_select, texture_descriptors, to_grey)
+from lidartrees_gis.ground.filter import KrausPfeifer, filter_errors, kp_weights, kraus_pfeifer
+from lidartrees_gis.ground.texture import glcm, pca_select, texture_descriptors, to_grey
 
 
 def test_weight_function_exact():

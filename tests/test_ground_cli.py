@@ -6,7 +6,7 @@ import pytest
 import rasterio
 
 from lidartrees_gis.cli import main
-from lidartrees_gis.ground import filter_errors
+from lidartrees_gis.ground.filter import filter_errors
 
 
 def _write_las(path, x, y, z, crs="EPSG:32632"):

@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
-from lidartrees_gis.ground import (KrausPfeifer, filter_errors, kraus_pfeifer, low_points)
-from lidartrees_gis.pipeline import cluster_roles, ground_classes
+from lidartrees_gis.ground.filter import KrausPfeifer, filter_errors, kraus_pfeifer, low_points
+from lidartrees_gis.ground.quality import cluster_roles
+from lidartrees_gis.ground.chain import ground_classes
 
 ISPRS = ["samp11", "samp21", "samp23", "samp31", "samp41", "samp51", "samp53", "samp61"]
 

@@ -308,7 +308,7 @@ def test_compiled_kernels_never_index_outside_their_arrays():
     CHM are refused before a kernel runs."""
     from lidartrees_gis import _accel
     from lidartrees_gis.errors import InputError
-    from lidartrees_gis.segment import region_growing, treex_growing
+    from lidartrees_gis.als.crowns import region_growing, treex_growing
 
     bad = [np.inf, -np.inf, np.nan, 1e300, -1e300, 1e19, 9.2e18]
     x = np.array([0.5] + bad + [0.5] * len(bad))

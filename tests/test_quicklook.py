@@ -2,7 +2,8 @@
 import numpy as np
 import pytest
 
-from lidartrees_gis.pipeline import nice_step, round_length, write_quicklook
+from lidartrees_gis.report.classes import nice_step, round_length
+from lidartrees_gis.report.quicklook import write_quicklook
 
 
 @pytest.mark.parametrize("span, step", [(36, 5), (27.2, 5), (12, 2), (60, 10), (3, 0.5),

@@ -5,7 +5,7 @@ import rasterio
 from lidartrees_gis.cli import main
 from lidartrees_gis.grid import GridSpec, rasterize
 from lidartrees_gis.io.points import open_points
-from lidartrees_gis.pipeline import compute_surfaces
+from lidartrees_gis.als.pipeline import compute_surfaces
 
 pytestmark = pytest.mark.realdata
 

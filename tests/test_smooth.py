@@ -2,8 +2,8 @@ import numpy as np
 import pytest
 
 from lidartrees_gis.errors import InputError
-from lidartrees_gis.smooth import (GAUSS_COARSE, GAUSS_FINE, abefec, closing, dilation, erosion,
-                                   footprint, opening, smooth)
+from lidartrees_gis.als.smooth import (GAUSS_COARSE, GAUSS_FINE, abefec, closing, dilation,
+    erosion, footprint, opening, smooth)
 
 
 def test_seed_masks_exact():
@@ -53,7 +53,7 @@ def test_nan_never_spreads():
 
 
 def test_more_smoothing_fewer_maxima():
-    from lidartrees_gis.detect import local_maxima
+    from lidartrees_gis.als.tops import local_maxima
 
     rng = np.random.default_rng(1)
     f = rng.random((60, 60)) * 5 + 10

@@ -9,10 +9,11 @@ import pytest
 import rasterio
 from pyproj import CRS
 
-from lidartrees_gis.catalog import Catalog, expand_inputs, make_tiles
+from lidartrees_gis.catalog.catalog import Catalog, make_tiles
+from lidartrees_gis.catalog.inputs import expand_inputs
 from lidartrees_gis.cli import main
 from lidartrees_gis.io.lasout import write_points
-from lidartrees_gis.tiled import trees_tiled
+from lidartrees_gis.als.tiled import trees_tiled
 
 
 @pytest.fixture(scope="module")
@@ -51,7 +52,7 @@ def test_inputs_from_folder_glob_list_and_vpc(split_stand, tmp_path):
 
 
 def test_default_tile_side_follows_the_point_density(split_stand, tmp_path):
-    from lidartrees_gis import tiled
+    from lidartrees_gis.als import tiled
 
     assert tiled.auto_tile_size(1.9) == 500.0  # Megaplot copies: 1.9 points per occupied m²
     assert tiled.auto_tile_size(4.0) == 350.0
@@ -96,7 +97,7 @@ def test_tiled_equals_untiled_on_a_stand_split_in_files(split_stand, tmp_path):
     assert all(ca.geometry[i].contains(tops.geometry[i]) for i in tops.index)
     assert tops.crs.to_epsg() == 29194 and tops.index.is_unique
     # and the trees are the stand's (the files' seams do not split or double them)
-    from lidartrees_gis.evaluate import evaluate_trees
+    from lidartrees_gis.report.evaluate import evaluate_trees
 
     e = evaluate_trees(tops.x, tops.y, tops.height, truth["x"], truth["y"], truth["height"])
     assert e["all"]["f_score"] >= 0.97
@@ -107,11 +108,11 @@ def test_tiles_look_for_a_planting_lattice_as_one_file_does(tmp_path):
     looks again at its empty positions, as the whole file does (F >= 0.97)."""
     from pyproj import CRS as PCRS
 
-    from lidartrees_gis.evaluate import evaluate_trees
-    from lidartrees_gis.pipeline import trees_file
+    from lidartrees_gis.report.evaluate import evaluate_trees
+    from lidartrees_gis.als.pipeline import trees_file
     from lidartrees_gis.synthetic import CRS as SCRS
     from lidartrees_gis.synthetic import StandParams, make_stand
-    from lidartrees_gis.trees import TreeParams
+    from lidartrees_gis.als.trees import TreeParams
 
     pts, truth = make_stand(StandParams(seed=3, density=4.0))
     f = tmp_path / "stand.laz"
@@ -139,10 +140,10 @@ def test_plantation_mode_in_tiles_reports_the_stocking_of_one_file(tmp_path):
     of the whole file."""
     from pyproj import CRS as PCRS
 
-    from lidartrees_gis.pipeline import trees_file
+    from lidartrees_gis.als.pipeline import trees_file
     from lidartrees_gis.synthetic import CRS as SCRS
     from lidartrees_gis.synthetic import StandParams, make_stand
-    from lidartrees_gis.trees import TreeParams
+    from lidartrees_gis.als.trees import TreeParams
 
     pts, truth = make_stand(StandParams(seed=3, density=4.0))
     f = tmp_path / "stand.laz"
@@ -181,7 +182,7 @@ def test_tiles_choose_the_cell_size_of_one_file_in_sparse_data(tmp_path):
     0.65 m cells instead of 0.7 m."""
     from pyproj import CRS as PCRS
 
-    from lidartrees_gis.pipeline import load_chm
+    from lidartrees_gis.als.pipeline import load_chm
     from lidartrees_gis.synthetic import CRS as SCRS
     from lidartrees_gis.synthetic import StandParams, make_stand
 
@@ -210,7 +211,7 @@ def test_existing_cluster_with_threaded_workers_gives_the_same_trees(split_stand
     pytest.importorskip("dask.distributed")
     from dask.distributed import LocalCluster
 
-    from lidartrees_gis.catalog import READ_CACHE
+    from lidartrees_gis.catalog.source import READ_CACHE
 
     d, _, _ = split_stand
     one = trees_tiled(d, tmp_path / "one.gpkg", tile_size=30, workers=1)
@@ -229,7 +230,7 @@ def test_existing_cluster_with_threaded_workers_gives_the_same_trees(split_stand
 
 def test_small_runs_stay_in_this_process_unless_workers_are_asked(split_stand, tmp_path,
                                                                     monkeypatch):
-    from lidartrees_gis import tiled
+    from lidartrees_gis.catalog import runner as tiled
 
     def no_cluster(*a):
         raise AssertionError("a cluster was started")
@@ -249,7 +250,7 @@ def test_small_runs_stay_in_this_process_unless_workers_are_asked(split_stand, t
 
 _START_CHECK = """
 import sys, threading
-import lidartrees_gis.tiled as tiled
+import lidartrees_gis.catalog.runner as tiled
 if __name__ == "__main__":
     if sys.argv[1] == "thread":  # another thread running: forking could deadlock the workers
         ev = threading.Event()
@@ -257,7 +258,7 @@ if __name__ == "__main__":
     tiled.SENTINEL = 42  # set at run time: only a forked worker sees it
     method = tiled.worker_start_method()
     with tiled.TileRunner(2) as r:
-        seen = list(r.map(lambda _: getattr(__import__("lidartrees_gis.tiled").tiled,
+        seen = list(r.map(lambda _: getattr(__import__("lidartrees_gis.catalog.runner").catalog.runner,
                                             "SENTINEL", None), [0, 1], ordered=True))
     print(method, seen)
     if sys.argv[1] == "thread":
@@ -300,7 +301,7 @@ def test_worker_start_method_keeps_a_configured_one_and_spawns_from_a_large_proc
         monkeypatch):
     import dask
 
-    from lidartrees_gis import tiled
+    from lidartrees_gis.catalog import runner as tiled
 
     with dask.config.set({"distributed.worker.multiprocessing-method": "forkserver"}):
         assert tiled.worker_start_method() == "forkserver"
@@ -319,7 +320,7 @@ def test_laz_is_decompressed_on_one_thread_inside_a_dask_worker():
     import laspy
 
     from lidartrees_gis.io.points import laz_backend
-    from lidartrees_gis.tiled import TileRunner
+    from lidartrees_gis.catalog.runner import TileRunner
 
     assert laz_backend() is None  # laspy's default, parallel
     with TileRunner(2) as runner:
@@ -421,8 +422,8 @@ def test_neighbouring_tiles_read_a_file_once(split_stand, tmp_path, monkeypatch)
     over half the budget is never kept."""
     import shutil
 
-    from lidartrees_gis import catalog as cat_mod
-    from lidartrees_gis.catalog import ReadCache, TileSource
+    from lidartrees_gis.catalog import source as cat_mod
+    from lidartrees_gis.catalog.source import ReadCache, TileSource
 
     d, files, _ = split_stand
     f = tmp_path / "a.laz"

@@ -2,11 +2,12 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from lidartrees_gis.detect import local_maxima, treex_maxima, variable_window_maxima
+from lidartrees_gis.als.tops import local_maxima, treex_maxima, variable_window_maxima
 from lidartrees_gis.grid import GridSpec
-from lidartrees_gis.segment import (marker_watershed, rank_levels, region_growing, treex_growing,
-                                    vincent_soille)
-from lidartrees_gis.trees import TreeParams, accuracy, detect_trees
+from lidartrees_gis.als.crowns import (marker_watershed, rank_levels, region_growing,
+    treex_growing, vincent_soille)
+from lidartrees_gis.als.trees import TreeParams, detect_trees
+from lidartrees_gis.report.evaluate import accuracy
 
 
 def paraboloids(shape, tops, radius=6.0):
@@ -119,7 +120,8 @@ def test_every_crown_holds_exactly_its_top(method):
 
 
 def test_synthetic_stand_default_method_meets_targets(stand):
-    from lidartrees_gis.pipeline import compute_surfaces, open_input
+    from lidartrees_gis.als.pipeline import compute_surfaces
+    from lidartrees_gis.io.options import open_input
     from lidartrees_gis.synthetic import write_xyz_seed_dialect
 
     pts, truth = stand
@@ -141,7 +143,7 @@ def test_crown_polygons_outline_each_label_with_holes_and_one_piece():
     """Outlines of a label grid, built in one vectorised call: the exact cell outlines, a hole
     kept, a crown in two 4-connected pieces gives its larger piece, labels over n ignored."""
     from lidartrees_gis.grid import GridSpec
-    from lidartrees_gis.metrics import crown_polygons
+    from lidartrees_gis.als.metrics import crown_polygons
 
     lab = np.zeros((12, 12), np.int32)
     lab[1:3, 1:3] = 1

@@ -8,11 +8,11 @@ import pyogrio
 import pytest
 
 from lidartrees_gis.cli import main
-from lidartrees_gis.detect import adaptive_maxima, local_maxima, treex_maxima
-from lidartrees_gis.evaluate import evaluate_trees, match_eysn
+from lidartrees_gis.als.tops import adaptive_maxima, local_maxima, treex_maxima
+from lidartrees_gis.report.evaluate import evaluate_trees, match_eysn
 from lidartrees_gis.grid import GridSpec
-from lidartrees_gis.stocking import fit_planting_grid, stocking
-from lidartrees_gis.trees import TreeParams, detect_trees, parse_spacing
+from lidartrees_gis.als.stocking import fit_planting_grid, stocking
+from lidartrees_gis.als.trees import TreeParams, detect_trees, parse_spacing
 
 
 def crowns(shape, tops, res, radius):
@@ -173,7 +173,7 @@ def test_planting_grid_lies_on_the_stems_at_every_azimuth(az):
 
 def test_stocking_finds_the_missing_trees_of_a_stand(stand):
     pts, truth = stand
-    from lidartrees_gis.pipeline import _bilinear  # noqa: F401  (pipeline import check)
+    from lidartrees_gis.als.pipeline import _bilinear
 
     res = 0.25
     spec = GridSpec.from_bounds(truth["x"].min() - 1.5, truth["y"].min() - 1.0,
@@ -254,7 +254,7 @@ def test_plantation_mode_writes_gaps_and_stocking(tmp_path, stand):
 
 
 def test_separate_tops_is_greedy_highest_first():
-    from lidartrees_gis.detect import separate_tops
+    from lidartrees_gis.als.tops import separate_tops
 
     rng = np.random.default_rng(5)
     rows = rng.integers(0, 40, 300)
@@ -304,7 +304,7 @@ def test_sparse_stand_tops_on_tree_heights_with_separation(tmp_path):
     from pyproj import CRS as PCRS
 
     from lidartrees_gis.io.lasout import write_points
-    from lidartrees_gis.pipeline import load_chm
+    from lidartrees_gis.als.pipeline import load_chm
     from lidartrees_gis.synthetic import CRS, StandParams, make_stand
 
     def stand_chm(density):
@@ -371,7 +371,7 @@ def test_gap_tops_take_an_apex_return_at_an_empty_position_only():
     """A lower tree whose apex has no local maximum on the CHM (the CHM bridges to its taller
     neighbour) is found at its planting position from its apex return; a flank return, a
     return near a detected top and a low return are not."""
-    from lidartrees_gis.stocking import gap_tops
+    from lidartrees_gis.als.stocking import gap_tops
 
     res = 0.5
     spec = GridSpec(0, 20, res, 40, 40)
@@ -406,9 +406,9 @@ def test_plantation_mode_looks_again_at_empty_positions(tmp_path, monkeypatch):
     separation keeps the double tops out."""
     from pyproj import CRS as PCRS
 
-    import lidartrees_gis.stocking as stocking_mod
+    import lidartrees_gis.als.stocking as stocking_mod
     from lidartrees_gis.io.lasout import write_points
-    from lidartrees_gis.pipeline import trees_file
+    from lidartrees_gis.als.pipeline import trees_file
     from lidartrees_gis.synthetic import CRS, StandParams, make_stand
 
     pts, truth = make_stand(StandParams(seed=3, density=4.0))
@@ -447,7 +447,7 @@ def test_plantation_mode_warns_that_sparse_data_under_report_stocking(tmp_path, 
 
     from lidartrees_gis.errors import DataWarning
     from lidartrees_gis.io.lasout import write_points
-    from lidartrees_gis.pipeline import trees_file
+    from lidartrees_gis.als.pipeline import trees_file
     from lidartrees_gis.synthetic import CRS, StandParams, make_stand
 
     def data_warnings(f, **kw):
@@ -475,7 +475,7 @@ def test_plantation_mode_warns_that_sparse_data_under_report_stocking(tmp_path, 
 
 
 def test_detect_planting_finds_the_lattice_of_a_stand_and_none_in_random_trees(stand):
-    from lidartrees_gis.stocking import detect_planting
+    from lidartrees_gis.als.stocking import detect_planting
 
     _, truth = stand
     g = detect_planting(truth["x"], truth["y"])
@@ -492,7 +492,7 @@ def test_detect_planting_finds_the_lattice_of_a_stand_and_none_in_random_trees(s
 def test_detect_planting_gives_up_after_a_fit_on_a_sample_of_random_trees(stand, monkeypatch):
     """Every tile of a large area looks for a lattice: random trees are given up on after a
     fit on PRE_FIT_TREES of them; a stand's lattice is then fitted on all its tops."""
-    from lidartrees_gis import stocking
+    from lidartrees_gis.als import stocking
 
     calls = []
     fit = stocking.fit_planting_grid
@@ -514,7 +514,7 @@ def test_defaults_look_again_at_the_empty_positions_of_a_detected_lattice(tmp_pa
     from pyproj import CRS as PCRS
 
     from lidartrees_gis.io.lasout import write_points
-    from lidartrees_gis.pipeline import trees_file
+    from lidartrees_gis.als.pipeline import trees_file
     from lidartrees_gis.synthetic import CRS, StandParams, make_stand
 
     pts, truth = make_stand(StandParams(seed=3, density=4.0))
@@ -549,7 +549,7 @@ def test_defaults_look_again_at_the_empty_positions_of_a_detected_lattice(tmp_pa
 def test_planting_grid_of_a_large_stand_is_fitted_on_a_sample():
     """62,500 trees: the grid is fitted on a fixed sample (bounded memory: the full angle x tree
     arrays would take several GB) and still lies on the stems; the lattice is found too."""
-    from lidartrees_gis.stocking import FIT_MAX_TREES, detect_planting
+    from lidartrees_gis.als.stocking import FIT_MAX_TREES, detect_planting
 
     rng = np.random.default_rng(4)
     i, j = np.meshgrid(np.arange(250), np.arange(250))
@@ -575,9 +575,9 @@ def test_auto_cell_size_follows_the_data_not_the_bounding_box(tmp_path):
     the truth)."""
     from pyproj import CRS as PCRS
 
-    from lidartrees_gis.chm import chm_resolution
+    from lidartrees_gis.als.chm import chm_resolution
     from lidartrees_gis.io.lasout import write_points
-    from lidartrees_gis.pipeline import load_chm
+    from lidartrees_gis.als.pipeline import load_chm
     from lidartrees_gis.synthetic import CRS, StandParams, make_stand
 
     pts, truth = make_stand(StandParams(seed=11, density=4.0))

@@ -7,6 +7,7 @@ import numpy as np
 
 from .. import __version__
 from ..errors import InputError, ReadError
+from ..grid import GridSpec
 from .output import atomic_output
 
 NODATA = -9999.0
@@ -86,7 +87,6 @@ def read_raster(path):
     import pyproj
     import rasterio
 
-    from ..grid import GridSpec
 
     try:
         with rasterio.open(path) as ds:
@@ -101,3 +101,19 @@ def read_raster(path):
             return arr, spec, ds.tags()
     except rasterio.errors.RasterioIOError as exc:
         raise ReadError(f"{path}: cannot read raster ({exc})") from None
+
+
+def resample_to(src_array, src_spec: GridSpec, spec: GridSpec) -> np.ndarray:
+    """Bilinear resampling of a raster (NaN = nodata) onto ``spec`` (e.g. an external DTM).
+
+    A source without a CRS is taken to be in ``spec``'s CRS.
+    """
+    from rasterio.warp import Resampling, reproject
+
+    dst = np.full(spec.shape, np.nan, dtype=np.float64)
+    dcrs = rio_crs(spec.crs)
+    scrs = rio_crs(src_spec.crs) or dcrs
+    reproject(np.asarray(src_array, dtype=np.float64), dst, src_transform=src_spec.transform,
+              src_crs=scrs, dst_transform=spec.transform, dst_crs=dcrs or scrs,
+              resampling=Resampling.bilinear, src_nodata=np.nan, dst_nodata=np.nan)
+    return dst

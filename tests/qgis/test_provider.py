@@ -12,7 +12,7 @@ import pytest
 import rasterio
 
 from lidartrees_gis.cli import build_parser, main
-from lidartrees_gis.commands import COMMANDS
+from lidartrees_gis.cli.commands import COMMANDS
 
 pytestmark = pytest.mark.qgis
 ROOT = Path(__file__).resolve().parents[2]

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import InputError, ReadError
+from ..errors import InputError, ReadError
 
 #: Eysn et al. 2015 matching limits
 MAX_DIST = 2.5
@@ -198,7 +198,7 @@ def evaluate_file(detected, reference, output=None, *, layer=None, ref_layer=Non
     optionally write the report as JSON (``.json``) or the matched pairs as CSV (``.csv``)."""
     import json
 
-    from .io.output import atomic_output, check_output
+    from ..io.output import atomic_output, check_output
 
     if not (max_dist > 0 and max_dz >= 0):
         raise InputError(f"-max_dist must be > 0 and -max_dz >= 0 (got {max_dist}, {max_dz})")
@@ -251,3 +251,44 @@ def format_report(report: dict) -> str:
                     f"{s['recall']:.3f} | {s['precision']:.3f} | {s['f_score']:.3f} | "
                     f"{'' if hb is None else f'{hb:+.2f}'} | {'' if hr is None else f'{hr:.2f}'} |")
     return "\n".join(rows)
+
+
+def match_trees(det_x, det_y, ref_x, ref_y, max_dist: float = 1.0):
+    """One-to-one matching of detected and reference trees (closest pairs first, within
+    ``max_dist`` m). Returns ``(det_index, ref_index)`` arrays of matched pairs."""
+    from scipy.spatial import cKDTree
+
+    if len(det_x) == 0 or len(ref_x) == 0:
+        return np.empty(0, np.int64), np.empty(0, np.int64)
+    tree = cKDTree(np.c_[ref_x, ref_y])
+    pairs = tree.sparse_distance_matrix(cKDTree(np.c_[det_x, det_y]), max_dist, output_type="ndarray")
+    order = np.argsort(pairs["v"], kind="stable")
+    used_r, used_d, md, mr = set(), set(), [], []
+    for k in order:
+        r, d = int(pairs["i"][k]), int(pairs["j"][k])
+        if r in used_r or d in used_d:
+            continue
+        used_r.add(r)
+        used_d.add(d)
+        md.append(d)
+        mr.append(r)
+    return np.asarray(md, np.int64), np.asarray(mr, np.int64)
+
+
+def accuracy(table: dict, truth: dict, max_dist: float = 1.0) -> dict:
+    """Detection accuracy against known trees: matches, omission, commission, F-score, RMSE of
+    height and of crown diameter (against ``visible_crown_diameter`` when given)."""
+    d, r = match_trees(table["x"], table["y"], truth["x"], truth["y"], max_dist)
+    n_det, n_ref, m = len(table["x"]), len(truth["x"]), len(d)
+    prec = m / n_det if n_det else 0.0
+    rec = m / n_ref if n_ref else 0.0
+    out = {"detected": n_det, "reference": n_ref, "matched": m,
+           "omission": 1 - rec, "commission": 1 - prec,
+           "f_score": 2 * prec * rec / (prec + rec) if prec + rec else 0.0}
+    if m:
+        out["height_rmse"] = float(np.sqrt(np.mean((table["height"][d] - truth["height"][r]) ** 2)))
+        key = "visible_crown_diameter" if "visible_crown_diameter" in truth else "crown_diameter"
+        if key in truth:
+            out["crown_diameter_rmse"] = float(np.sqrt(np.mean(
+                (table["crown_diameter"][d] - truth[key][r]) ** 2)))
+    return out

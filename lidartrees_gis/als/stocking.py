@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from .errors import InputError
+from ..errors import InputError
 
 
 @dataclass(frozen=True)
@@ -194,7 +194,7 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
     ok[ok] &= mask[r[ok], c[ok]]
     ii, jj, nx, ny = ii[ok], jj[ok], nx[ok], ny[ok]
     # one top per position: closest pairs first, within half the smaller spacing
-    from .trees import match_trees
+    from ..report.evaluate import match_trees
 
     node_k, top_k = match_trees(nx, ny, tx, ty, max_dist=0.5 * min(R, C))
     stocked_mask = np.zeros(ii.size, bool)

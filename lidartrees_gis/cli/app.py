@@ -10,10 +10,10 @@ import json
 import math
 import sys
 
-from . import __version__
+from .. import __version__
 from .commands import COMMANDS
-from .errors import Cancelled, LidarTreesError
-from .progress import LineProgress, NullProgress, TqdmProgress
+from ..errors import Cancelled, LidarTreesError
+from ..progress import LineProgress, NullProgress, TqdmProgress
 
 
 def _help(p):
@@ -138,7 +138,7 @@ def main(argv=None) -> int:
     _terminate_as_interrupt()
     import warnings
 
-    from .errors import DataWarning
+    from ..errors import DataWarning
 
     def _show(message, category, filename, lineno, file=None, line=None):
         if issubclass(category, DataWarning):

@@ -7,12 +7,12 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from .detect import adaptive_maxima, local_maxima, treex_maxima, variable_window_maxima
-from .errors import InputError
-from .grid import GridSpec
+from .tops import adaptive_maxima, local_maxima, treex_maxima, variable_window_maxima
+from ..errors import InputError
+from ..grid import GridSpec
 from .metrics import tree_table
-from .segment import (keep_top_components, marker_watershed, region_growing, treex_growing,
-                      vincent_soille)
+from .crowns import (keep_top_components, marker_watershed, region_growing, treex_growing,
+    vincent_soille)
 from .smooth import smooth as smooth_chm
 
 METHODS = ("rg", "treex", "watershed", "mcws")
@@ -317,42 +317,3 @@ def _grow(chm_s, rows, cols, res: float, p: TreeParams):
     return marker_watershed(chm_s, rows, cols, min_height=p.min_height)
 
 
-def match_trees(det_x, det_y, ref_x, ref_y, max_dist: float = 1.0):
-    """One-to-one matching of detected and reference trees (closest pairs first, within
-    ``max_dist`` m). Returns ``(det_index, ref_index)`` arrays of matched pairs."""
-    from scipy.spatial import cKDTree
-
-    if len(det_x) == 0 or len(ref_x) == 0:
-        return np.empty(0, np.int64), np.empty(0, np.int64)
-    tree = cKDTree(np.c_[ref_x, ref_y])
-    pairs = tree.sparse_distance_matrix(cKDTree(np.c_[det_x, det_y]), max_dist, output_type="ndarray")
-    order = np.argsort(pairs["v"], kind="stable")
-    used_r, used_d, md, mr = set(), set(), [], []
-    for k in order:
-        r, d = int(pairs["i"][k]), int(pairs["j"][k])
-        if r in used_r or d in used_d:
-            continue
-        used_r.add(r)
-        used_d.add(d)
-        md.append(d)
-        mr.append(r)
-    return np.asarray(md, np.int64), np.asarray(mr, np.int64)
-
-
-def accuracy(table: dict, truth: dict, max_dist: float = 1.0) -> dict:
-    """Detection accuracy against known trees: matches, omission, commission, F-score, RMSE of
-    height and of crown diameter (against ``visible_crown_diameter`` when given)."""
-    d, r = match_trees(table["x"], table["y"], truth["x"], truth["y"], max_dist)
-    n_det, n_ref, m = len(table["x"]), len(truth["x"]), len(d)
-    prec = m / n_det if n_det else 0.0
-    rec = m / n_ref if n_ref else 0.0
-    out = {"detected": n_det, "reference": n_ref, "matched": m,
-           "omission": 1 - rec, "commission": 1 - prec,
-           "f_score": 2 * prec * rec / (prec + rec) if prec + rec else 0.0}
-    if m:
-        out["height_rmse"] = float(np.sqrt(np.mean((table["height"][d] - truth["height"][r]) ** 2)))
-        key = "visible_crown_diameter" if "visible_crown_diameter" in truth else "crown_diameter"
-        if key in truth:
-            out["crown_diameter_rmse"] = float(np.sqrt(np.mean(
-                (table["crown_diameter"][d] - truth[key][r]) ** 2)))
-    return out

@@ -12,7 +12,7 @@ import re
 import numpy as np
 from scipy import ndimage
 
-from .errors import InputError
+from ..errors import InputError
 
 #: seed 000's fine Gaussian mask (sigma² = 0.6, 3 x 3), integer weights / 17
 GAUSS_FINE = np.array([[1, 2, 1], [2, 5, 2], [1, 2, 1]], dtype=np.float64) / 17.0

@@ -21,15 +21,14 @@ import math
 import numpy as np
 from scipy import ndimage
 
-from .errors import InputError
-from .grid import GridSpec
+from ..errors import InputError
+from ..grid import GridSpec
+from .. import tin
+from ..tin import LOCAL_RADIUS, _morton_order, tiebreak, tin_surface
 
 #: Khosravipour et al. 2014 / lidR ``pitfree`` height thresholds (m)
 PITFREE_THRESHOLDS = (0.0, 2.0, 5.0, 10.0, 15.0)
 CHM_KINDS = ("pitfree", "max", "tin")
-#: triangles with a wider circumcircle (m) are not drawn: the surface then depends only on the
-#: points within two radii of a cell, so tiles with that much buffer agree with the whole area
-LOCAL_RADIUS = 10.0
 
 
 def chm_resolution(count: int, area: float) -> float:
@@ -65,165 +64,6 @@ def pitfree_edge(count: int, area: float) -> float:
     return float(np.clip(EDGE_SPACINGS * math.sqrt(area / count), 1.5, 3.0))
 
 
-def _centres_where(spec: GridSpec, mask):
-    r, c = np.nonzero(mask)
-    x, y = spec.xy(r, c)
-    return r, c, x, y
-
-
-def _morton_order(x, y, cell: float = 1.0):
-    """Indices that sort points along a Morton curve of ``cell``-metre cells."""
-    def spread(v):
-        v = v & np.uint64(0xFFFF)
-        v = (v | (v << np.uint64(8))) & np.uint64(0x00FF00FF)
-        v = (v | (v << np.uint64(4))) & np.uint64(0x0F0F0F0F)
-        v = (v | (v << np.uint64(2))) & np.uint64(0x33333333)
-        return (v | (v << np.uint64(1))) & np.uint64(0x55555555)
-
-    ix = np.clip((np.asarray(x) - np.min(x)) / cell, 0, 65535).astype(np.uint64)
-    iy = np.clip((np.asarray(y) - np.min(y)) / cell, 0, 65535).astype(np.uint64)
-    return np.argsort(spread(ix) | (spread(iy) << np.uint64(1)), kind="stable")
-
-
-def _startinpy():
-    """The startinpy module, or None where it is not installed."""
-    try:
-        import startinpy
-    except ImportError:  # pragma: no cover - depends on the environment
-        return None
-    return startinpy
-
-
-def _highest_dt(startinpy):
-    """An empty startinpy DT in which coincident points keep the highest z. The caller must
-    ``del`` it in a ``finally``: a DT must be dropped by the thread that made it (pyo3
-    "unsendable"), not later by a garbage collection elsewhere through a traceback that still
-    holds the frame."""
-    dt = startinpy.DT()
-    dt.duplicates_handling = "Highest"
-    return dt
-
-
-def triangulate(x, y, z):
-    """2-D Delaunay triangulation: ``(px, py, pz, triangles)``.
-
-    With startinpy (Rust, MIT licence; about 10x faster than Qhull here) coincident points keep
-    the highest z; otherwise scipy's Qhull. Coordinates should be local (small numbers). The
-    surfaces use the compiled :func:`_accel.layered_tin` first (3-4x faster again, and it draws
-    while it triangulates); this is its fallback.
-    """
-    startinpy = _startinpy()
-    if startinpy is not None:
-        # insert along a Morton (z-order) curve of 1 m cells: incremental insertion walks from
-        # the last point, and points in random order (some XYZ files) made it 70x slower
-        order = _morton_order(x, y)
-        dt = _highest_dt(startinpy)
-        try:
-            dt.insert(np.column_stack([x[order], y[order], z[order]]))
-            p = np.asarray(dt.points)
-            tri = np.asarray(dt.triangles, dtype=np.int64)
-        finally:
-            del dt  # see _highest_dt
-        return p[:, 0], p[:, 1], p[:, 2], tri  # vertex 0 is startin's infinite vertex, unused
-    from scipy.spatial import Delaunay
-
-    tri = Delaunay(np.column_stack([x, y]))
-    return x, y, z, tri.simplices.astype(np.int64)
-
-
-def tiebreak(x, y, scale: float = 1e-5):
-    """Tiny deterministic offsets (at most ``scale``/2 m) computed from each point's own map
-    coordinates: they make exactly cocircular points (frequent on a 1 cm LAS lattice) generic,
-    so the Delaunay triangulation, and the surface, of a tile equals that of the whole area."""
-    x = np.asarray(x, np.float64)
-    y = np.asarray(y, np.float64)
-    h1 = np.sin(x * 12.9898 + y * 78.233) * 43758.5453
-    h2 = np.sin(x * 39.3467 + y * 11.1351) * 24634.6345
-    return scale * (h1 - np.floor(h1) - 0.5), scale * (h2 - np.floor(h2) - 0.5)
-
-
-def tin_surface(x, y, z, spec: GridSpec, *, max_edge: float = 0.0, cells=None,
-                out=None, max_radius: float = 0.0) -> np.ndarray:
-    """Linear TIN of points ``(x, y, z)`` sampled at the cell centres of ``spec``.
-
-    Parameters
-    ----------
-    x, y, z : (P,) ndarray of float
-    spec : GridSpec
-    max_edge : float
-        Triangles with an edge longer than this (m) are left out; 0 keeps every triangle.
-    cells : (M, N) ndarray of bool, optional
-        Only these cells are sampled (others NaN); default all (ignored by the compiled path,
-        which visits only the cells under each triangle anyway).
-    out : (M, N) ndarray of float, optional
-        Draw into this grid, keeping the higher value in each cell (NaN = empty).
-    max_radius : float
-        Triangles whose circumcircle is wider than this radius (m) are left out (0: keep all).
-        The kept triangles then depend only on the points within two radii, so a tile with that
-        much buffer gets the same surface as the whole area (compiled path only).
-
-    Returns
-    -------
-    (M, N) ndarray of float, NaN outside the triangulation and in dropped triangles.
-    """
-    from scipy.spatial import Delaunay, QhullError
-
-    from . import _accel
-
-    if out is None:
-        out = np.full(spec.shape, np.nan)
-    x, y, z = (np.asarray(a, np.float64) for a in (x, y, z))
-    if x.size < 3:
-        return out
-    # triangulate in local coordinates (large UTM values lose precision)
-    x0, y0 = float(x.min()), float(y.min())
-    if _accel.HAVE_NUMBA:
-        jx, jy = tiebreak(x, y)
-        lx, ly = x - x0 + jx, y - y0 + jy
-        if max_radius and max_radius > 0:  # compiled triangulation; drawn once it is built
-            order = _morton_order(lx, ly)
-            if _accel.layered_tin(lx[order], ly[order], z[order], [x.size], [float(max_edge)],
-                                  float(max_radius), spec.left - x0, spec.top - y0, spec.res,
-                                  spec.height, spec.width, out) >= 0:
-                return out
-        try:
-            px, py, pz, simp = triangulate(lx, ly, z)
-        except (QhullError, ValueError, RuntimeError):
-            return out
-        if len(simp):
-            _accel.raster_triangles(px, py, pz, simp, float(max_edge), spec.left - x0,
-                                    spec.top - y0, spec.res, spec.height, spec.width, out,
-                                    max_radius=float(max_radius or 0.0))
-        return out
-    pts = np.column_stack([x - x0, y - y0])
-    try:
-        tri = Delaunay(pts)
-    except (QhullError, ValueError):
-        return out
-    simp = tri.simplices
-    if max_edge and max_edge > 0:
-        p = pts[simp]  # (T, 3, 2)
-        e = np.stack([np.hypot(*(p[:, i] - p[:, (i + 1) % 3]).T) for i in range(3)], axis=1)
-        bad_simplex = e.max(axis=1) > max_edge
-    else:
-        bad_simplex = np.zeros(len(simp), bool)
-    if cells is None:
-        cells = np.ones(spec.shape, bool)
-    r, c, cx, cy = _centres_where(spec, cells)
-    q = np.column_stack([cx - x0, cy - y0])
-    s = tri.find_simplex(q)
-    ok = s >= 0
-    ok[ok] &= ~bad_simplex[s[ok]]
-    s_ok = s[ok]
-    T = tri.transform[s_ok]  # barycentric transform
-    b = np.einsum("ijk,ik->ij", T[:, :2, :], q[ok] - T[:, 2, :])
-    w = np.column_stack([b, 1.0 - b.sum(axis=1)])
-    vals = np.einsum("ij,ij->i", w, z[simp[s_ok]])
-    rr, cc = r[ok], c[ok]
-    out[rr, cc] = np.fmax(out[rr, cc], vals)
-    return out
-
-
 def pitfree_chm(x, y, zn, spec: GridSpec, *, thresholds=PITFREE_THRESHOLDS, max_edge=(0.0, 1.5),
                 coarse=None) -> np.ndarray:
     """Pit-free CHM (Khosravipour et al. 2014; lidR ``pitfree``).
@@ -253,7 +93,7 @@ def pitfree_chm(x, y, zn, spec: GridSpec, *, thresholds=PITFREE_THRESHOLDS, max_
     x, y, zn = (np.asarray(a, np.float64) for a in (x, y, zn))
     if len(max_edge) != 2 or min(max_edge) < 0:
         raise InputError(f"max_edge: expected two lengths >= 0 (m), got {max_edge!r}")
-    from . import _accel
+    from .. import _accel
 
     ts = sorted(float(t) for t in thresholds)
     out = np.full(spec.shape, np.nan)
@@ -271,7 +111,7 @@ def pitfree_chm(x, y, zn, spec: GridSpec, *, thresholds=PITFREE_THRESHOLDS, max_
         if i > 0 and edge > 0 and not _accel.HAVE_NUMBA:
             # only cells within one edge length of a point at or above t can be covered
             if reach is None:
-                from .grid import GridAccumulator
+                from ..grid import GridAccumulator
 
                 acc = GridAccumulator(spec, ("max",))
                 acc.add(x, y, zn)
@@ -302,7 +142,7 @@ def _pitfree_incremental(x, y, zn, spec: GridSpec, ts, max_edge, out):
     builds the same triangulation. Returns None when neither can (the caller then triangulates
     every layer on its own).
     """
-    from . import _accel
+    from .. import _accel
 
     # the layers with at least 3 points (ts ascending: the counts only fall)
     layers = [i for i, t in enumerate(ts) if np.count_nonzero(zn >= t) >= 3]
@@ -325,10 +165,10 @@ def _pitfree_incremental(x, y, zn, spec: GridSpec, ts, max_edge, out):
     if _accel.layered_tin(lx[idx], ly[idx], zn[idx], ends, edges, LOCAL_RADIUS, *grid, out) >= 0:
         return out
     out[:] = np.nan  # bands drawn before the predicates failed: all drawn again below
-    startinpy = _startinpy()
+    startinpy = tin._startinpy()
     if startinpy is None:
         return None
-    dt = _highest_dt(startinpy)
+    dt = tin._highest_dt(startinpy)
     try:
         for band, edge in zip(bands, edges):
             if band.size:

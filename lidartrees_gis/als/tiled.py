@@ -17,14 +17,16 @@ Tasks run in this process with ``workers=1``, on a local ``dask.distributed`` cl
 from __future__ import annotations
 
 import math
-import os
 
 import numpy as np
 
-from .catalog import READ_CACHE, Catalog, Tile, TileSource, make_tiles
-from .errors import InputError
-from .io.vector import start_from_existing
-from .progress import as_progress, check_cancel
+from ..catalog.catalog import Catalog, Tile, make_tiles
+from ..catalog.mosaic import MosaicWriter
+from ..catalog.runner import TileRunner, default_workers
+from ..catalog.source import TileSource
+from ..errors import InputError
+from ..io.vector import start_from_existing
+from ..progress import as_progress
 
 #: the smallest and largest default tile side (m); between them the side holds about
 #: TILE_POINTS points (see :func:`auto_tile_size`)
@@ -64,7 +66,8 @@ def _tile_side(tile_size, density: float, res: float) -> float:
 def _surfaces(catalog: Catalog, box, opts: dict):
     """Surfaces of the points in ``box``; None when the box holds no point (a gap between
     files, a corner of the area)."""
-    from .pipeline import compute_surfaces, parse_classes
+    from .pipeline import compute_surfaces
+    from ..io.options import parse_classes
 
     src = TileSource(catalog, box)
     if not src.files:
@@ -86,7 +89,7 @@ def _window_edge(box, catalog: Catalog, opts: dict, res: float) -> float:
     (:func:`lidartrees_gis.chm.pitfree_edge` of the first returns over the ``res`` cells that
     hold a return); NaN for an empty box."""
     from .chm import pitfree_edge
-    from .pipeline import parse_classes
+    from ..io.options import parse_classes
 
     src = TileSource(catalog, box)
     src.set_class_filter(drop=parse_classes(opts["drop_class"]) or (),
@@ -105,7 +108,8 @@ def _window_density(box, catalog: Catalog, opts: dict) -> float:
     corners do not count: the rule of one file's ``-tr auto``. (Over 1 m cells sparse data
     looked denser than it is, as a 1 m cell is often empty: 1.73 points/m² for Topography's
     1.0, and 0.75 m cells instead of one file's 1.0 m.)"""
-    from .pipeline import FOOTPRINT_CELL, parse_classes
+    from .pipeline import FOOTPRINT_CELL
+    from ..io.options import parse_classes
 
     src = TileSource(catalog, box)
     src.set_class_filter(drop=parse_classes(opts["drop_class"]) or (),
@@ -147,7 +151,7 @@ def area_parameters(catalog: Catalog, res, params, opts: dict, *, window: float 
     are measured as tasks of ``runner`` (a :class:`TileRunner`; default: in this process).
     """
     from .chm import chm_resolution
-    from .grid import check_resolution
+    from ..grid import check_resolution
     from .trees import SPACING_FACTOR
 
     fixed_res = None if res is None or str(res).strip().lower() == "auto" else check_resolution(res)
@@ -263,136 +267,6 @@ def tile_trees(tile: Tile, catalog: Catalog, params, opts: dict) -> dict:
     return out
 
 
-#: below this many points a run stays in the calling process unless ``workers`` or
-#: ``scheduler`` say otherwise: starting a local cluster (0.6 s forked, 1.2 s spawned) costs
-#: more than the second core saves. Measured on 2 cores with forked workers, Megaplot copies:
-#: 0.16 M points 1.5-1.6 s in one process, 2.0 s on two workers; 0.49 M 2.2 / 2.3-2.5 s;
-#: 0.98 M 3.4-3.6 / 3.0-3.4 s; 2.0 M 6.0 / 4.9 s (spawned workers: 3.2 s at 0.16 M)
-LOCAL_BELOW_POINTS = 1_000_000
-
-
-def default_workers(workers, scheduler, count: int):
-    """``workers`` as given; when neither it, ``scheduler`` nor ``LIDARTREES_WORKERS`` is set,
-    1 (this process) for fewer than :data:`LOCAL_BELOW_POINTS` points, else None (all cores)."""
-    if workers or scheduler or os.environ.get("LIDARTREES_WORKERS"):
-        return workers
-    return 1 if count < LOCAL_BELOW_POINTS else None
-
-
-#: a process using more memory than this (bytes) spawns its local workers instead of forking
-#: them: a forked worker's resident size counts the pages it shares with this process, and
-#: Dask's memory monitor would take them for the worker's own (the command itself uses about
-#: 300 MB when it starts the cluster)
-FORK_MAX_RSS = 1 << 30
-
-
-def worker_start_method() -> str:
-    """How a local cluster starts its worker processes: Dask's own setting when it is not the
-    default ``spawn``; else ``fork`` where it is safe (Linux, no other Python thread, no Qt and
-    less than :data:`FORK_MAX_RSS` resident in this process: the workers inherit its imported
-    library instead of starting a new interpreter and importing it again, which on 2 cores took
-    CPU from the tiles), else ``spawn``. Measured at 16 M points on 2 workers: 26.1-26.8 s
-    forked, 27.6-27.8 s spawned (the workers' CPU 44.7-44.8 s against 46.0-47.5 s)."""
-    import sys
-    import threading
-
-    import dask
-    import psutil
-
-    method = dask.config.get("distributed.worker.multiprocessing-method", "spawn")
-    if method != "spawn":
-        return method
-    safe = (sys.platform.startswith("linux") and threading.active_count() == 1
-            and not any(m in sys.modules for m in ("PyQt5", "PyQt6", "qgis"))
-            and psutil.Process().memory_info().rss < FORK_MAX_RSS)
-    return "fork" if safe else "spawn"
-
-
-def _client(workers, scheduler):
-    from dask.distributed import Client, LocalCluster
-
-    if scheduler:
-        return Client(scheduler), None
-    import logging
-
-    import dask
-
-    # glibc's own malloc settings in the workers: the nanny's MALLOC_TRIM_THRESHOLD_ (memory
-    # back to the system at once) also fixes the mmap threshold, so every array of a tile was a
-    # fresh mapping to fault in (5x the page faults, each task a third slower than in one
-    # process); and no statistical profiler sampling the task's stack every 10 ms
-    env = {k: v for k, v in (dask.config.get("distributed.nanny.pre-spawn-environ") or {}).items()
-           if k != "MALLOC_TRIM_THRESHOLD_"}
-    with dask.config.set({"distributed.worker.profile.enabled": False,
-                          "distributed.nanny.pre-spawn-environ": env,
-                          "distributed.worker.multiprocessing-method": worker_start_method()}):
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=logging.ERROR)
-    return Client(cluster), cluster
-
-
-class TileRunner:
-    """Runs tasks ``fn(item, *args)``: in this process (``workers=1``), on a local Dask cluster
-    of ``workers`` processes (default: all cores) or on an existing cluster (``scheduler``).
-    Use it as a context manager so the cluster is started once for a whole run (the area's
-    windows, then the tiles) and closed at the end."""
-
-    def __init__(self, workers=None, scheduler=None):
-        self.workers = int(workers or os.environ.get("LIDARTREES_WORKERS", 0) or os.cpu_count() or 1)
-        self.scheduler = scheduler or None
-        self.client = self.cluster = None
-
-    def __enter__(self):
-        if self.workers > 1 or self.scheduler:
-            self.client, self.cluster = _client(self.workers, self.scheduler)
-        return self
-
-    def __exit__(self, *exc):
-        READ_CACHE.clear()  # this process's decompressed files (workers end with the cluster)
-        if self.client is not None:
-            self.client.close()
-        if self.cluster is not None:
-            self.cluster.close()
-        self.client = self.cluster = None
-
-    def map(self, fn, items, args=(), *, progress=None, ordered=False, label="tile"):
-        """Yield ``fn(item, *args)`` for every item, as they finish (``ordered``: in order).
-        A cancel (or Ctrl-C) cancels the remaining tasks."""
-        prog = as_progress(progress)
-        n = len(items)
-        if self.client is None:
-            for k, it in enumerate(items):
-                check_cancel(prog)
-                yield fn(it, *args)
-                prog.update((k + 1) / n, f"{label} {k + 1}/{n}")
-            return
-        from dask.distributed import as_completed
-
-        futs = []
-        try:
-            # the arguments (the catalog above all) go to the workers once, not with every
-            # task: the client and scheduler held a copy per task, files x tiles in all
-            shared = [self.client.scatter(a, broadcast=True, hash=False)
-                      if isinstance(a, Catalog) else a for a in args]
-            # each worker takes a contiguous run of the (row by row) tiles, so the files it
-            # decompressed for one tile are still in its read cache for the next; idle workers
-            # still take over the others' tasks at the end
-            addrs = sorted(self.client.scheduler_info(n_workers=-1)["workers"])
-            block = max(1, -(-n // max(len(addrs), 1)))
-            futs = [self.client.submit(fn, it, *shared, pure=False,
-                                       workers=[addrs[k // block]] if addrs else None,
-                                       allow_other_workers=True)
-                    for k, it in enumerate(items)]
-            for k, f in enumerate(futs if ordered else as_completed(futs)):
-                check_cancel(prog)
-                yield f.result()
-                f.release()
-                prog.update((k + 1) / n, f"{label} {k + 1}/{n}")
-        finally:
-            if futs:
-                self.client.cancel(futs)
-
-
 def plan(catalog: Catalog, params, opts: dict, tile_size=None, buffer=None, runner=None):
     """Area parameters and tiles: ``(params with crown scale and dominant height, opts with the
     cell size and the median point density, tiles, buffer)``."""
@@ -406,57 +280,6 @@ def plan(catalog: Catalog, params, opts: dict, tile_size=None, buffer=None, runn
     if buf < 0:
         raise InputError(f"-buffer must be >= 0 m, got {buffer}")
     return params, opts, make_tiles(catalog.extent, ts, buf), buf
-
-
-class MosaicWriter:
-    """A tiled GeoTIFF over the whole area, written window by window as tiles finish."""
-
-    def __init__(self, tmp_path, spec, *, creation_options=None, tags=None, description=None):
-        import rasterio
-
-        from .io.raster import DEFAULT_CO, NODATA, rio_crs
-
-        co = dict(DEFAULT_CO)
-        co.update({k.upper(): v for k, v in (creation_options or {}).items()})
-        co.setdefault("BIGTIFF", "IF_SAFER")
-        if spec.width < 16 or spec.height < 16:
-            co.pop("TILED", None), co.pop("BLOCKXSIZE", None), co.pop("BLOCKYSIZE", None)
-        self.spec = spec
-        self.nodata = NODATA
-        self.ds = rasterio.open(tmp_path, "w", driver="GTiff", width=spec.width,
-                                height=spec.height, count=1, dtype="float32",
-                                crs=rio_crs(spec.crs), transform=spec.transform, nodata=NODATA,
-                                **co)
-        if tags:
-            import json
-
-            from . import __version__
-
-            t = {"LIDARTREES_VERSION": __version__}
-            t.update({str(k).upper(): v if isinstance(v, str) else json.dumps(v, default=str)
-                      for k, v in tags.items()})
-            self.ds.update_tags(**t)
-        if description:
-            self.ds.set_band_description(1, description)
-
-    def write(self, arr, left, top):
-        from rasterio.windows import Window
-
-        s = self.spec
-        c0 = int(round((left - s.left) / s.res))
-        r0 = int(round((s.top - top) / s.res))
-        a = np.asarray(arr, np.float32)
-        # clip to the mosaic
-        rr0, cc0 = max(r0, 0), max(c0, 0)
-        rr1, cc1 = min(r0 + a.shape[0], s.height), min(c0 + a.shape[1], s.width)
-        if rr1 <= rr0 or cc1 <= cc0:
-            return
-        a = a[rr0 - r0:rr1 - r0, cc0 - c0:cc1 - c0]
-        self.ds.write(np.where(np.isnan(a), self.nodata, a), 1,
-                      window=Window(cc0, rr0, cc1 - cc0, rr1 - rr0))
-
-    def close(self):
-        self.ds.close()
 
 
 def _options(kw: dict) -> dict:
@@ -507,13 +330,13 @@ def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, work
     import pyogrio
     import pyogrio.raw
 
-    from . import __version__
-    from .crs import crs_label
-    from .grid import GridSpec
-    from .io.output import atomic_output, check_outputs
+    from .. import __version__
+    from ..crs import crs_label
+    from ..grid import GridSpec
+    from ..io.output import atomic_output, check_outputs
     from .metrics import tree_ids
     from .pipeline import stocking_fields, warn_sparse_plantation
-    from .progress import SubProgress
+    from ..progress import SubProgress
     from .trees import TreeParams
 
     p = params or TreeParams()
@@ -717,10 +540,10 @@ def chm_tiled(input, output, *, tile_size=None, buffer=None, workers=None, sched
     """``lidartrees chm`` over many files: a CHM (and DTM, DSM) mosaic, tile by tile."""
     import contextlib
 
-    from .crs import crs_label
-    from .grid import GridSpec
-    from .io.output import atomic_output, check_outputs
-    from .progress import SubProgress
+    from ..crs import crs_label
+    from ..grid import GridSpec
+    from ..io.output import atomic_output, check_outputs
+    from ..progress import SubProgress
 
     outputs = [(output, "OUTPUT"), (dtm_out, "-dtm_out"), (dsm_out, "-dsm_out")]
     check_outputs(outputs, (), overwrite)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .grid import GridSpec
+from ..grid import GridSpec
 
 
 def tree_ids(x, y, res: float) -> np.ndarray:

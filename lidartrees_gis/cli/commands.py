@@ -7,7 +7,6 @@ the two cannot drift. ``run(**kwargs, progress=...)`` calls one library function
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable
 
 # This module imports nothing beyond the standard library at load time: the QGIS provider reads
 # the parameter table from it without loading numpy, GDAL or GEOS into the QGIS process.
@@ -43,9 +42,16 @@ class Command:
     group: str
     summary: str
     params: tuple
-    run: Callable
+    action: str  # the function of :mod:`lidartrees_gis.cli.actions` that runs it
     help: str = ""
     outputs: tuple = field(default=())
+
+    def run(self, **kw):
+        """Run the command with parameter values ``kw`` (names as in :attr:`params`, plus
+        ``progress``); returns the library call's result dict."""
+        from . import actions
+
+        return getattr(actions, self.action)(**kw)
 
 
 INPUT = Param("input", "input", "Point file: LAS/LAZ or XYZ text (tab/space/comma/semicolon, "
@@ -149,301 +155,24 @@ KEEP_OUTLIERS = Param("keep_outliers", "bool", "Keep isolated returns far above 
                       flag="-keep_outliers", default=False, advanced=True)
 
 
-def _info(input, **kw):
-    from . import pipeline
-
-    src = pipeline.open_input(input, **_read_kw(kw))
-    return pipeline.info(src, progress=kw.get("progress"))
-
-
-def _read_kw(kw):
-    keys = ("a_srs", "t_srs", "delimiter", "decimal_comma", "columns", "skip_invalid")
-    out = {k: kw[k] for k in keys if kw.get(k) is not None}
-    if "allow_no_crs" in kw:  # commands whose outputs are georeferenced
-        out["require_crs"] = not kw.get("allow_no_crs")
-    return out
-
-
-def _co(kw):
-    from .io.raster import parse_kv
-
-    return parse_kv(kw.get("creation_options"), "-co") or None
-
-
-def _classes(kw):
-    return {"drop_class": kw.get("drop_class") if kw.get("drop_class") is not None else "7,18",
-            "keep_class": kw.get("keep_class") or None}
-
-
-def _grid(input, output, **kw):
-    from . import pipeline
-
-    return pipeline.grid_file(input, output, res=kw.get("res") or "auto",
-                              stat=kw.get("stat") or "max", fill=kw.get("fill") or "none",
-                              **_classes(kw),
-                              creation_options=_co(kw),
-                              overwrite=bool(kw.get("overwrite")), progress=kw.get("progress"),
-                              **_read_kw(kw))
-
-
-def _chm(input, output, **kw):
-    from . import pipeline
-
-    ts, tiled = _tiling(input, kw)
-    if tiled:
-        from .tiled import chm_tiled
-
-        return chm_tiled(input, output, tile_size=ts, **_tile_kw(kw), res=kw.get("res") or "auto",
-                         dtm=kw.get("dtm") or "auto", chm=kw.get("chm") or "pitfree",
-                         outliers=not kw.get("keep_outliers"), **_classes(kw),
-                         fill=kw.get("fill") or "mean8", dtm_out=kw.get("dtm_out"),
-                         dsm_out=kw.get("dsm_out"),
-                         creation_options=_co(kw),
-                         overwrite=bool(kw.get("overwrite")), a_srs=kw.get("a_srs"),
-                         progress=kw.get("progress"),
-                         read_kw={k: v for k, v in _read_kw(kw).items() if k != "a_srs"})
-
-    return pipeline.chm_file(input, output, res=kw.get("res") or "auto",
-                             dtm=kw.get("dtm") or "auto", chm=kw.get("chm") or "pitfree",
-                             outliers=not kw.get("keep_outliers"), **_classes(kw),
-                             fill=kw.get("fill") or "mean8", dsm_out=kw.get("dsm_out"),
-                             dtm_out=kw.get("dtm_out"), creation_options=_co(kw),
-                             overwrite=bool(kw.get("overwrite")), progress=kw.get("progress"),
-                             **_read_kw(kw))
-
-
-def _tree_params(kw):
-    from .trees import TreeParams
-
-    names = ("method", "smooth", "min_height", "step", "tops", "mean_crown_area", "sd_crown_area",
-             "max_crown_area", "min_crown_height", "connectivity", "spacing", "crown_scale",
-             "window_factor", "treex_centred", "min_separation", "planting")
-    conv = {"connectivity": int, "treex_centred": bool}
-    text = ("method", "smooth", "tops", "spacing", "planting")
-    vals = {}
-    for n in names:
-        v = kw.get(n)
-        if v is None or (n in text and v == ""):
-            continue
-        try:
-            vals[n] = conv.get(n, float)(v) if n not in text else v
-        except ValueError:
-            from .errors import InputError
-
-            raise InputError(f"-{n}: expected a number, got {v!r}") from None
-    return TreeParams(**vals)
-
-
-#: a single file with more points than this is processed in tiles by default
-TILED_ABOVE = 20_000_000
-
-
-def _tiling(input, kw):
-    """``(tile_size or None, use tiles?)`` from -tile_size and the input."""
-    from pathlib import Path
-
-    from .catalog import is_catalog_input
-    from .errors import InputError
-
-    ts = kw.get("tile_size")
-    if ts is not None and str(ts).strip().lower() == "auto":  # the default
-        ts = None
-    if ts is not None and str(ts).strip().lower() in ("none", "inf", "0"):
-        return float("inf"), True
-    if ts not in (None, ""):
-        try:
-            v = float(ts)
-        except ValueError:
-            raise InputError(f"-tile_size: expected metres or none, got {ts!r}") from None
-        if not v > 0:
-            raise InputError(f"-tile_size must be > 0 m, got {ts!r}")
-        return v, True
-    if is_catalog_input(input):
-        return None, True
-    p = Path(str(input))
-    if p.suffix.lower() in (".las", ".laz") and p.exists():
-        from .io.points import las_point_count
-
-        try:
-            return None, las_point_count(p) > TILED_ABOVE
-        except Exception:  # noqa: BLE001 - the reader reports a broken file properly later
-            return None, False
-    return None, False
-
-
-def _tile_kw(kw):
-    from .errors import InputError
-
-    out = {"buffer": None, "workers": None, "scheduler": kw.get("scheduler") or None}
-    for k in ("buffer", "workers"):
-        if kw.get(k) not in (None, ""):
-            try:
-                out[k] = float(kw[k]) if k == "buffer" else int(float(kw[k]))
-            except ValueError:
-                raise InputError(f"-{k}: expected a number, got {kw[k]!r}") from None
-    if out["workers"] is not None and out["workers"] < 1:
-        raise InputError(f"-workers must be >= 1, got {kw['workers']!r}")
-    return out
-
-
-def _trees(input, output, **kw):
-    from . import pipeline
-    from .io.raster import parse_kv
-
-    ts, tiled = _tiling(input, kw)
-    if tiled:
-        from .tiled import trees_tiled
-
-        if kw.get("png") or kw.get("csv"):
-            from .errors import InputError
-
-            raise InputError("-png and -csv are made for one tile; drop them for a tiled run "
-                             "(or give -tile_size none)")
-        r = trees_tiled(
-            input, output, params=_tree_params(kw), tile_size=ts, **_tile_kw(kw),
-            res=kw.get("res") or "auto", dtm=kw.get("dtm") or "auto",
-            chm=kw.get("chm") or "pitfree", outliers=not kw.get("keep_outliers"), **_classes(kw),
-            fill=kw.get("fill") or "mean8", nln=kw.get("nln") or "",
-            layer_options=parse_kv(kw.get("layer_options"), "-lco"),
-            overwrite=bool(kw.get("overwrite")), append=bool(kw.get("append")),
-            chm_out=kw.get("chm_out"), a_srs=kw.get("a_srs"), progress=kw.get("progress"),
-            read_kw={k: v for k, v in _read_kw(kw).items() if k != "a_srs"})
-        return {k: v for k, v in r.items() if k not in ("tree_ids", "table")}
-
-    r = pipeline.trees_file(
-        input, output, res=kw.get("res") or "auto", params=_tree_params(kw),
-        dtm=kw.get("dtm") or "auto", chm=kw.get("chm") or "pitfree",
-        outliers=not kw.get("keep_outliers"), **_classes(kw),
-        fill=kw.get("fill") or "mean8", nln=kw.get("nln") or "",
-        layer_options=parse_kv(kw.get("layer_options"), "-lco"), overwrite=bool(kw.get("overwrite")),
-        append=bool(kw.get("append")), png=kw.get("png"), csv=kw.get("csv"),
-        chm_out=kw.get("chm_out"), progress=kw.get("progress"), **_read_kw(kw))
-    return {k: v for k, v in r.items() if k not in ("result", "spec")}
-
-
-def _compare(input, output, **kw):
-    from . import pipeline
-
-    r = pipeline.compare_file(input, output, res=kw.get("res") or "auto",
-                              dtm=kw.get("dtm") or "auto", chm=kw.get("chm") or "pitfree",
-                              strict=bool(kw.get("strict")), **_classes(kw),
-                              fill=kw.get("fill") or "mean8",
-                              min_height=float(kw.get("min_height") or 2.0),
-                              step=float(kw.get("step") or 0.1), overwrite=bool(kw.get("overwrite")),
-                              progress=kw.get("progress"), **_read_kw(kw))
-    return {"output": r["output"], "reprojection": r.get("reprojection"), "table": r["table"]}
-
-
-def _kp_params(kw):
-    from .ground import KrausPfeifer
-
-    names = ("g", "w", "a", "b", "iterations", "cell", "levels", "tolerance", "refine", "slope",
-             "tin_cell", "low", "w_growth")
-    vals = {"gshift": bool(kw.get("gshift"))}
-    for n in names:
-        v = kw.get(n)
-        if v is None or (n in ("g", "w") and isinstance(v, str) and ":" in v):
-            continue
-        try:
-            f = float(v)
-            if n in ("iterations", "levels", "refine"):
-                if f != int(f):
-                    raise ValueError
-                f = int(f)
-            vals[n] = f
-        except ValueError:
-            from .errors import InputError
-
-            raise InputError(f"-{n}: expected a number, got {v!r}") from None
-    return KrausPfeifer(**vals)
-
-
-def _ground(input, output, **kw):
-    from . import pipeline
-
-    return pipeline.ground_file(input, output, dtm_out=kw.get("dtm_out"), res=kw.get("res") or "auto",
-                                params=_kp_params(kw), overwrite=bool(kw.get("overwrite")),
-                                reclassify=bool(kw.get("reclassify")), creation_options=_co(kw),
-                                progress=kw.get("progress"), **_read_kw(kw))
-
-
-def _dtm_quality(input, outdir, **kw):
-    from . import pipeline
-
-    return pipeline.dtm_quality_file(
-        input, outdir, g=kw.get("g") or "-4:1:0.5", w=kw.get("w") or "1:4:0.5",
-        res=kw.get("res") or "auto", params=_kp_params(kw), seed=int(kw.get("seed") or 0),
-        overwrite=bool(kw.get("overwrite")), progress=kw.get("progress"), **_read_kw(kw))
-
-
-def _stem(input, prefix, **kw):
-    from . import pipeline
-    from .errors import InputError
-    from .tls.stem import DmaxParams
-
-    vals = {}
-    for n in ("section", "search", "hspacing", "vspacing", "start"):
-        if kw.get(n) is not None:
-            try:
-                vals[n] = float(kw[n])
-            except ValueError:
-                raise InputError(f"-{n}: expected a number, got {kw[n]!r}") from None
-    if kw.get("base") is not None:
-        vals["base"] = str(kw["base"])
-    return pipeline.stem_file(input, prefix, params=DmaxParams(**vals),
-                              overwrite=bool(kw.get("overwrite")), progress=kw.get("progress"),
-                              **_read_kw(kw))
-
-
-def _profile(input, output, **kw):
-    from . import pipeline
-
-    return pipeline.profile_file(input, output, bin=float(kw.get("bin") or 0.05),
-                                 sigma=float(kw.get("sigma") or 0.3),
-                                 overwrite=bool(kw.get("overwrite")), progress=kw.get("progress"),
-                                 **_read_kw(kw))
-
-
-def _evaluate(detected, reference, **kw):
-    from .evaluate import evaluate_file
-    from .errors import InputError
-
-    try:
-        md = float(kw.get("max_dist") if kw.get("max_dist") is not None else 2.5)
-        mz = float(kw.get("max_dz") if kw.get("max_dz") is not None else 5.0)
-    except ValueError:
-        raise InputError("-max_dist/-max_dz: expected numbers (m)") from None
-    r = evaluate_file(detected, reference, kw.get("report"), layer=kw.get("layer") or None,
-                      ref_layer=kw.get("ref_layer") or None, max_dist=md, max_dz=mz,
-                      overwrite=bool(kw.get("overwrite")), progress=kw.get("progress"))
-    return r
-
-
-def _demo(outdir=None, **kw):
-    from .demo import run_demo
-
-    return run_demo(outdir or "lidartrees_demo", overwrite=bool(kw.get("overwrite")),
-                    progress=kw.get("progress"))
-
-
 COMMANDS = {
     "info": Command(
         "info", "Points", "Points, bounds, density, CRS, classes and returns of a point file",
-        (INPUT, *READ, Param("json", "bool", "Print JSON", flag="--json", default=False)), _info),
+        (INPUT, *READ, Param("json", "bool", "Print JSON", flag="--json", default=False)), "info"),
     "grid": Command(
         "grid", "Rasters", "Grid points into a GeoTIFF with one statistic per cell",
         (INPUT, Param("output", "output", "Output GeoTIFF"), RES,
          Param("stat", "choice", "Per-cell statistic of z", flag="-stat",
                choices=("max", "min", "mean", "count"), default="max"),
          Param("fill", "choice", FILL.help, flag="-fill", choices=("mean8", "none"), default="none"),
-         *CLASSES, *READ_GEO, CO, OVERWRITE), _grid, outputs=("output",)),
+         *CLASSES, *READ_GEO, CO, OVERWRITE), "grid", outputs=("output",)),
     "chm": Command(
         "chm", "Rasters", "Canopy height model CHM = DSM (highest point per cell) - DTM",
         (INPUT, Param("output", "output", "Output CHM GeoTIFF"), CHM_RES, DTM_AUTO, CHM_KIND,
          FILL, *CLASSES, KEEP_OUTLIERS, *TILES,
          Param("dsm_out", "output", "Also write the DSM here", flag="-dsm_out", advanced=True),
          Param("dtm_out", "output", "Also write the DTM here", flag="-dtm_out", advanced=True),
-         *READ_GEO, CO, OVERWRITE), _chm, outputs=("output", "dsm_out", "dtm_out")),
+         *READ_GEO, CO, OVERWRITE), "chm", outputs=("output", "dsm_out", "dtm_out")),
     "trees": Command(
         "trees", "Trees", "Tree tops, crowns and a stand summary (GeoPackage) from points or a CHM",
         (Param("input", "input", "Point file (LAS/LAZ, XYZ) or a CHM GeoTIFF"),
@@ -514,7 +243,7 @@ COMMANDS = {
          Param("chm_out", "output", "Also write the CHM GeoTIFF", flag="-chm_out", advanced=True),
          *READ_GEO, OVERWRITE,
          Param("append", "bool", "Append to an existing GeoPackage", flag="-append",
-               default=False, advanced=True)), _trees, outputs=("output", "png", "csv", "chm_out")),
+               default=False, advanced=True)), "trees", outputs=("output", "png", "csv", "chm_out")),
     "compare": Command(
         "compare", "Trees", "Castro (2006) Table 1: ten smoothing/segmentation configurations compared",
         (Param("input", "input", "Point file (LAS/LAZ, XYZ) or a CHM GeoTIFF"),
@@ -533,7 +262,7 @@ COMMANDS = {
          *CLASSES,
          Param("fill", "choice", FILL.help, flag="-fill", choices=("mean8", "none"),
                default="mean8", advanced=True),
-         *READ_GEO, OVERWRITE), _compare, outputs=("output",)),
+         *READ_GEO, OVERWRITE), "compare", outputs=("output",)),
     "ground": Command(
         "ground", "Ground", "Ground points by Kraus & Pfeifer hierarchical robust interpolation "
         "(Leite et al.) and TIN densification, classified LAS/LAZ and DTM",
@@ -546,7 +275,7 @@ COMMANDS = {
          Param("reclassify", "bool", "Also give the filter's decision to points of other classes "
                "(water, buildings...); by default only classes 0, 1, 2 change", flag="-reclassify",
                default=False, advanced=True),
-         *READ_GEO, CO, OVERWRITE), _ground, outputs=("output", "dtm_out")),
+         *READ_GEO, CO, OVERWRITE), "ground", outputs=("output", "dtm_out")),
     "dtm-quality": Command(
         "dtm-quality", "Ground", "DTM quality sweep (Leite et al.): Kraus & Pfeifer (g, w) grid, "
         "GLCM texture, PCA, k-means",
@@ -560,7 +289,7 @@ COMMANDS = {
                aliases=("--resolution",), default="auto", unit="m"),
          *[p for p in KP_PARAMS if p.name not in ("g", "w", "tolerance")],
          Param("seed", "float", "k-means random seed", flag="-seed", default=0, advanced=True),
-         *READ_GEO, OVERWRITE), _dtm_quality),
+         *READ_GEO, OVERWRITE), "dtm_quality"),
     "stem": Command(
         "stem", "Terrestrial", "Trunk points, DBH and taper of one tree by the Dmax filter "
         "(Buck et al. 2014)",
@@ -578,7 +307,7 @@ COMMANDS = {
                default="auto", advanced=True),
          Param("start", "float", "First section this far above the base", flag="-start",
                default=0.5, advanced=True, unit="m"),
-         *READ, OVERWRITE), _stem),
+         *READ, OVERWRITE), "stem"),
     "profile": Command(
         "profile", "Terrestrial", "Roots / stem / canopy from the point-density profile "
         "(Queiroz 2017)",
@@ -588,7 +317,7 @@ COMMANDS = {
          Param("bin", "float", "Slice height", flag="-bin", default=0.05, unit="m"),
          Param("sigma", "float", "Gaussian smoothing sigma (0.1, 0.3, 0.6 tested; 0.3 best)",
                flag="-sigma", default=0.3, unit="m"),
-         *READ, OVERWRITE), _profile, outputs=("output",)),
+         *READ, OVERWRITE), "profile", outputs=("output",)),
     "evaluate": Command(
         "evaluate", "Trees", "Accuracy of tree tops against reference trees (Eysn et al. 2015 "
         "matching): recall, precision, F, height bias and RMSE",
@@ -606,11 +335,11 @@ COMMANDS = {
                flag="-layer", advanced=True),
          Param("ref_layer", "str", "Layer of the reference file (default: the first)",
                flag="-ref_layer", advanced=True),
-         OVERWRITE), _evaluate, outputs=("report",)),
+         OVERWRITE), "evaluate", outputs=("report",)),
     "demo": Command(
         "demo", "Demo", "Generate a synthetic eucalyptus stand with known trees and process it",
         (Param("outdir", "outdir", "Output folder (default lidartrees_demo)", default=None,
-               required=False), OVERWRITE), _demo),
+               required=False), OVERWRITE), "demo"),
 }
 
 

@@ -11,8 +11,8 @@ import heapq
 
 import numpy as np
 
-from ._accel import HAVE_NUMBA, numba
-from .errors import InputError
+from .._accel import HAVE_NUMBA, numba
+from ..errors import InputError
 
 
 def _jit(fn):

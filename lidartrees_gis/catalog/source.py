@@ -1,0 +1,158 @@
+"""The points of a catalog inside one box, read file by file with a bounded cache of
+decompressed files, behind the interface of :class:`~lidartrees_gis.io.points.PointSource`
+that the surfaces need."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from ..io.points import PointChunk
+from .catalog import Catalog
+
+
+#: decompressed points kept per process (bytes), so that the neighbouring tiles whose buffers
+#: reach into a file do not decompress it again; files over half of it are never kept
+READ_CACHE_BYTES = int(float(os.environ.get("LIDARTREES_READ_CACHE_MB", 128)) * 2 ** 20)
+
+
+class ReadCache:
+    """The points of recently read files (after the class filter), least recently used dropped
+    first, at most ``budget`` bytes. Keyed by path, size and modification time and by how the
+    file is read, so a changed file is read again."""
+
+    def __init__(self, budget: int = READ_CACHE_BYTES):
+        from collections import OrderedDict
+
+        import threading
+
+        self.budget = int(budget)
+        self.items: "OrderedDict" = OrderedDict()
+        self.nbytes = 0
+        self.hits = self.misses = 0
+        self._lock = threading.Lock()  # shared by a process's worker threads
+
+    @staticmethod
+    def key(path, read_kw: dict, drop, keep):
+        st = Path(path).stat()
+        return (str(Path(path).resolve()), st.st_size, st.st_mtime_ns,
+                repr(sorted(read_kw.items())), tuple(sorted(drop)),
+                None if keep is None else tuple(sorted(keep)))
+
+    def get(self, key):
+        with self._lock:
+            hit = self.items.get(key)
+            if hit is None:
+                self.misses += 1
+                return None
+            self.hits += 1
+            self.items.move_to_end(key)
+            return hit[0], hit[1]
+
+    def put(self, key, chunks: list, dropped: dict) -> None:
+        size = sum(_chunk_nbytes(c) for c in chunks)
+        with self._lock:
+            if size > self.budget // 2 or key in self.items:
+                return
+            self.items[key] = (chunks, dict(dropped), size)
+            self.nbytes += size
+            while self.nbytes > self.budget and self.items:
+                _, (_, _, n) = self.items.popitem(last=False)
+                self.nbytes -= n
+
+    def clear(self) -> None:
+        with self._lock:
+            self.items.clear()
+            self.nbytes = 0
+
+
+def _chunk_nbytes(c: PointChunk) -> int:
+    arrays = [c.x, c.y, c.z, c.classification, c.return_number, c.number_of_returns, c.intensity,
+              *c.extra.values()]
+    return int(sum(a.nbytes for a in arrays if a is not None))
+
+
+#: this process's cache (each Dask worker has its own)
+READ_CACHE = ReadCache()
+
+
+class TileSource:
+    """The points of a catalog inside one box, for :func:`~lidartrees_gis.pipeline.compute_surfaces`.
+
+    Reads every file that intersects the box chunk by chunk and keeps the points inside it;
+    the class filter of :meth:`set_class_filter` applies.
+    """
+
+    format = "tile"
+    repro = None
+    skipped = 0
+
+    def __init__(self, catalog: Catalog, box, *, chunk_size: int = 1_000_000):
+        self.catalog = catalog
+        self.box = tuple(float(v) for v in box)
+        self.files = catalog.files_for(self.box)
+        self.path = Path(f"tile {self.box[0]:.0f},{self.box[1]:.0f}")
+        self.crs = catalog.crs
+        self.chunk_size = chunk_size
+        self.drop_classes = frozenset()
+        self.keep_classes = None
+        self.dropped: dict = {}
+
+    def set_class_filter(self, drop=None, keep=None) -> None:
+        self.drop_classes = frozenset(int(c) for c in (drop or ()))
+        self.keep_classes = None if keep is None else frozenset(int(c) for c in keep)
+
+    def header_bounds(self):
+        return self.box
+
+    @property
+    def count_hint(self):
+        return None
+
+    def chunks(self, progress=None):
+        from ..io.points import open_points
+
+        x0, y0, x1, y1 = self.box
+        self.dropped = {}
+        cache = READ_CACHE
+        for f in self.files:
+            kw = {k: v for k, v in self.catalog.read_kw.items() if v is not None}
+            try:
+                key = cache.key(f, kw, self.drop_classes, self.keep_classes)
+            except OSError:  # gone: open_points says so
+                key = None
+            hit = None if key is None else cache.get(key)
+            kept, kept_bytes = None, 0  # what a first read keeps for the cache
+            if hit is not None:
+                chunks, dropped = hit
+            else:
+                src = open_points(f, chunk_size=self.chunk_size, **kw)
+                src.set_class_filter(self.drop_classes, None if self.keep_classes is None
+                                     else sorted(self.keep_classes))
+                chunks = src.chunks()
+                if key is not None:
+                    kept = []
+            for c in chunks:
+                if kept is not None:
+                    # own arrays: a view would keep the reader's whole point record buffer
+                    kept.append(c.subset(np.ones(len(c), bool)))
+                    kept_bytes += _chunk_nbytes(kept[-1])
+                    if kept_bytes > cache.budget // 2:  # too big to keep anyway
+                        kept = None
+                m = (c.x >= x0) & (c.x <= x1) & (c.y >= y0) & (c.y <= y1)
+                if m.any():
+                    yield c.subset(m)  # a copy: what is kept is never handed out
+            if hit is None:
+                dropped = src.dropped
+                if kept is not None:
+                    cache.put(key, kept, dropped)
+            for k, v in dropped.items():
+                self.dropped[k] = self.dropped.get(k, 0) + v
+
+    def read_all(self, progress=None) -> PointChunk:
+        return PointChunk.concat(self.chunks(progress))
+
+    def scan(self, progress=None):
+        raise InputError("a tile is scanned through its catalog")

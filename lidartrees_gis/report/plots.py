@@ -1,0 +1,45 @@
+"""Small PNG figures written by the file-level chains: DTM hillshades (ground quality sweep) and
+one-axis plots (TLS taper and profile)."""
+from __future__ import annotations
+
+import numpy as np
+
+
+# terrestrial scans (seeds 002 and 004)
+def plot_png(path, draw, *, size=(6, 6), overwrite=False):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..io.output import atomic_output
+
+    fig, ax = plt.subplots(figsize=size, dpi=100)
+    draw(ax)
+    fig.tight_layout()
+    with atomic_output(path, overwrite, param="PNG") as tmp:
+        fig.savefig(tmp, format="png")
+    plt.close(fig)
+
+
+def write_hillshade_png(path, dtm, res, title="", overwrite=False):
+    """Hillshade (azimuth 315°, altitude 45°) of a DTM as a PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import LightSource
+
+    from ..io.output import atomic_output
+
+    a = np.asarray(dtm, dtype=np.float64)
+    fill = np.nanmean(a) if np.isfinite(a).any() else 0.0
+    hs = LightSource(azdeg=315, altdeg=45).hillshade(np.where(np.isfinite(a), a, fill), dx=res, dy=res)
+    fig = plt.figure(figsize=(6, 6 * a.shape[0] / max(a.shape[1], 1)), dpi=100)
+    ax = fig.add_axes([0, 0, 1, 0.94])
+    ax.imshow(hs, cmap="gray", interpolation="nearest")
+    ax.set_axis_off()
+    fig.suptitle(title, fontsize=9)
+    with atomic_output(path, overwrite, param="PNG") as tmp:
+        fig.savefig(tmp, format="png")
+    plt.close(fig)
