@@ -7,8 +7,9 @@
 >>> tops, crowns, summary = lt.find_trees("stand.xyz", a_srs="SAD69 24K")  # doctest: +SKIP
 >>> tops.plot(column="height")                                    # doctest: +SKIP
 
-Every function takes the same options as its command (``chm``, ``trees``, ``ground``) (``res``, ``dtm``,
-``chm``, ``a_srs``, ``t_srs``, ``drop_class``, ...) and runs the same code; nothing is written.
+Every function takes the same options as its command (``chm``, ``trees``, ``ground``) (``res``,
+``dtm``, ``chm``, ``a_srs``, ``t_srs``, ``drop_class``, ...) and runs the same chain; nothing is
+written.
 """
 from __future__ import annotations
 
@@ -29,9 +30,20 @@ def raster_profile(spec: GridSpec, dtype="float32", nodata=float("nan")) -> dict
             "transform": spec.transform, "tiled": True, "compress": "deflate"}
 
 
+def _options(res, dtm, chm, fill, outliers, drop_class, keep_class, a_srs, t_srs, read_kw):
+    from .als.surfaces import SurfaceOptions
+    from .io.options import ReadOptions
+
+    return (SurfaceOptions(res=res, dtm=dtm, chm=chm, fill=fill, outliers=outliers),
+            ReadOptions(a_srs=a_srs, t_srs=t_srs, drop_class=drop_class, keep_class=keep_class,
+                        **read_kw))
+
+
 def canopy_height(input, *, res="auto", dtm="auto", chm="pitfree", fill="mean8", outliers=True,
-        drop_class=(7, 18), keep_class=None, a_srs=None, t_srs=None, progress=None, **read_kw):
-    """Canopy height model of a point file, as ``lidartrees chm`` builds it.
+                  drop_class=(7, 18), keep_class=None, a_srs=None, t_srs=None, progress=None,
+                  **read_kw):
+    """Canopy height model of point files, as ``lidartrees chm`` builds it (the area as one
+    tile).
 
     Returns
     -------
@@ -40,24 +52,22 @@ def canopy_height(input, *, res="auto", dtm="auto", chm="pitfree", fill="mean8",
     profile : dict
         rasterio profile (CRS, transform, nodata) to write or to place the array.
     """
-    from .als.pipeline import compute_surfaces
-    from .io.options import open_filtered
+    from .als.chain import area_surfaces
 
-    src = open_filtered(input, a_srs=a_srs, t_srs=t_srs, drop_class=drop_class,
-                        keep_class=keep_class, **read_kw)
-    s = compute_surfaces(src, res, dtm=dtm, chm=chm, fill=fill, outliers=outliers,
-                         progress=progress)
+    surface, read = _options(res, dtm, chm, fill, outliers, drop_class, keep_class, a_srs, t_srs,
+                             read_kw)
+    s, _, _ = area_surfaces(input, surface=surface, read=read, progress=progress)
     return s["chm"].astype(np.float32), raster_profile(s["spec"])
 
 
 def find_trees(input, *, params=None, res="auto", dtm="auto", chm="pitfree", fill="mean8",
-          outliers=True, drop_class=(7, 18), keep_class=None, a_srs=None, t_srs=None,
-          progress=None, **read_kw):
-    """Tree tops and crowns of a point file or a CHM GeoTIFF, as ``lidartrees trees`` finds them.
+               outliers=True, drop_class=(7, 18), keep_class=None, a_srs=None, t_srs=None,
+               tile_size=None, workers=None, progress=None, **read_kw):
+    """Tree tops and crowns of point files or a CHM GeoTIFF, as ``lidartrees trees`` finds them.
 
     Parameters
     ----------
-    params : lidartrees_gis.trees.TreeParams, optional
+    params : lidartrees_gis.als.trees.TreeParams, optional
         Detection parameters (default: automatic smoothing and window; ``spacing="3x2"`` for the
         plantation mode).
 
@@ -70,19 +80,15 @@ def find_trees(input, *, params=None, res="auto", dtm="auto", chm="pitfree", fil
     summary : dict
         The stand summary (trees, trees per ha, mean height, crown scale, stocking ...).
     """
-    from .als.pipeline import detect_with_stocking, load_chm, trees_frames
-    from .als.trees import TreeParams
+    from .als.chain import trees_run
+    from .catalog.catalog import TilingOptions
 
-    p = params or TreeParams()
-    arr, spec, _, built = load_chm(input, res=res, dtm=dtm, chm=chm, fill=fill,
-                                   outliers=outliers, drop_class=drop_class, keep_class=keep_class,
-                                   a_srs=a_srs, t_srs=t_srs, progress=progress,
-                                   returns=p.looks_at_planting, **read_kw)
-    result = detect_with_stocking(arr, spec, p, built.get("heights"), returns=built.get("returns"),
-                                  density=built.get("density"))
-    frames = trees_frames(result, spec, "")
-    summary = frames["summary"].iloc[0].to_dict()
-    return frames["tree_tops"], frames["crowns"], summary
+    surface, read = _options(res, dtm, chm, fill, outliers, drop_class, keep_class, a_srs, t_srs,
+                             read_kw)
+    r = trees_run(input, None, params=params, surface=surface, read=read,
+                  tiling=TilingOptions(tile_size=tile_size, workers=workers), progress=progress)
+    layers = r["layers"]
+    return layers["tree_tops"], layers["crowns"], layers["summary"].iloc[0].to_dict()
 
 
 def classify_ground(input, *, params=None, a_srs=None, t_srs=None, progress=None, **read_kw):
@@ -95,7 +101,7 @@ def classify_ground(input, *, params=None, a_srs=None, t_srs=None, progress=None
     ground : (N,) ndarray of bool
     """
     from .ground.chain import ground_points
-    from .io.options import open_input
+    from .io.options import ReadOptions
 
-    src = open_input(input, a_srs=a_srs, t_srs=t_srs, **read_kw)
+    src = ReadOptions(a_srs=a_srs, t_srs=t_srs, **read_kw).open(input, filtered=False)
     return ground_points(src, params, progress)

@@ -7,7 +7,10 @@ import numpy as np
 
 from .errors import OutputExistsError
 from .io.raster import read_raster
-from .als.pipeline import chm_file, trees_file
+from .als.chain import trees_run
+from .als.rasters import chm_run
+from .io.options import ReadOptions
+from .io.output import OutputOptions
 from .progress import SubProgress, as_progress
 from .synthetic import CRS, make_stand, write_truth_csv, write_xyz_seed_dialect
 
@@ -36,10 +39,14 @@ def run_demo(outdir="lidartrees_demo", *, overwrite=False, progress=None) -> dic
     write_xyz_seed_dialect(xyz, pts)
     write_truth_csv(truth_csv, truth)
     prog.update(0.2, "canopy height model")
-    r = chm_file(xyz, chm, a_srs=CRS, overwrite=overwrite, progress=SubProgress(prog, 0.2, 0.5))
-    t = trees_file(xyz, gpkg, a_srs=CRS, png=png, overwrite=overwrite,
-                   progress=SubProgress(prog, 0.5, 0.95))
-    tab = t["result"]["table"]
+    read, out_opts = ReadOptions(a_srs=CRS), OutputOptions(overwrite=overwrite)
+    r = chm_run(xyz, chm, read=read, out=out_opts, progress=SubProgress(prog, 0.2, 0.5))
+    t = trees_run(xyz, gpkg, read=read, out=out_opts, png=png,
+                  progress=SubProgress(prog, 0.5, 0.95))
+    import pyogrio
+
+    tab = pyogrio.read_dataframe(gpkg, layer="tree_tops", read_geometry=False)
+    tab = {k: tab[k].to_numpy() for k in ("x", "y", "height", "crown_diameter")}
     ev = evaluate_trees(tab["x"], tab["y"], tab["height"], truth["x"], truth["y"], truth["height"])
     d, rr = ev.pop("pairs")
     cd_rmse = float(np.sqrt(np.mean((tab["crown_diameter"][d] - truth["visible_crown_diameter"][rr]) ** 2))) \

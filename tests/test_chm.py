@@ -117,7 +117,7 @@ def test_surfaces_do_not_depend_on_the_order_of_the_points(tmp_path):
     from pyproj import CRS
 
     from lidartrees_gis.io.lasout import write_points
-    from lidartrees_gis.als.pipeline import chm_file
+    from lidartrees_gis.als.rasters import chm_run
 
     rng = np.random.default_rng(3)
     n_g, n_v = 6000, 12000
@@ -132,7 +132,7 @@ def test_surfaces_do_not_depend_on_the_order_of_the_points(tmp_path):
         f = tmp_path / f"p{k}.las"
         write_points(f, x[order], y[order], z[order], crs=CRS.from_epsg(31984),
                      classification=cls[order])
-        chm_file(f, tmp_path / f"c{k}.tif", dtm_out=tmp_path / f"d{k}.tif")
+        chm_run(f, tmp_path / f"c{k}.tif", dtm_out=tmp_path / f"d{k}.tif")
         with rasterio.open(tmp_path / f"c{k}.tif") as c, rasterio.open(tmp_path / f"d{k}.tif") as d:
             outs.append((c.read(1), d.read(1)))
     for c, d in outs[1:]:

@@ -5,7 +5,7 @@ import rasterio
 from lidartrees_gis.cli import main
 from lidartrees_gis.grid import GridSpec, rasterize
 from lidartrees_gis.io.points import open_points
-from lidartrees_gis.als.pipeline import compute_surfaces
+from lidartrees_gis.als.surfaces import SurfaceOptions, compute_surfaces
 
 pytestmark = pytest.mark.realdata
 
@@ -66,7 +66,7 @@ def test_topography_min_grid_matches_ground_class(data):
 
 def test_pycrown_chm_correlates_with_shipped_chm(data):
     src = open_points(data("pycrown_example/POINTS.laz"))
-    s = compute_surfaces(src, 1.0, dtm="ground")
+    s = compute_surfaces(src, 1.0, SurfaceOptions(dtm="ground", chm="max"))
     with rasterio.open(data("pycrown_example/CHM.tif")) as ref:
         R = ref.read(1)
         rows, cols = np.mgrid[0:s["spec"].height, 0:s["spec"].width]

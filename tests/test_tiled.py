@@ -13,7 +13,17 @@ from lidartrees_gis.catalog.catalog import Catalog, make_tiles
 from lidartrees_gis.catalog.inputs import expand_inputs
 from lidartrees_gis.cli import main
 from lidartrees_gis.io.lasout import write_points
-from lidartrees_gis.als.tiled import trees_tiled
+from lidartrees_gis.als.chain import trees_run
+from lidartrees_gis.catalog.catalog import TilingOptions
+from lidartrees_gis.io.output import OutputOptions
+
+
+def trees_tiled(input, output, *, params=None, tile_size=None, buffer=None, workers=None,
+                scheduler=None, overwrite=False, append=False, nln="", **kw):
+    """``trees`` through the one chain with the tiling given."""
+    return trees_run(input, output, params=params,
+                     tiling=TilingOptions(tile_size, buffer, workers, scheduler),
+                     out=OutputOptions(overwrite=overwrite, append=append, nln=nln), **kw)
 
 
 @pytest.fixture(scope="module")
@@ -51,15 +61,20 @@ def test_inputs_from_folder_glob_list_and_vpc(split_stand, tmp_path):
         expand_inputs(str(d / "nothing*.laz"))
 
 
-def test_default_tile_side_follows_the_point_density(split_stand, tmp_path):
-    from lidartrees_gis.als import tiled
+def test_default_tile_side_follows_the_point_density(split_stand, tmp_path, monkeypatch):
+    from lidartrees_gis.als import area as tiled
 
     assert tiled.auto_tile_size(1.9) == 500.0  # Megaplot copies: 1.9 points per occupied m²
     assert tiled.auto_tile_size(4.0) == 350.0
     assert tiled.auto_tile_size(25.0) == tiled.TILE_SIZE == 250.0  # dense: memory per worker
     assert tiled.auto_tile_size(0.01) == tiled.MAX_TILE_SIZE
     assert tiled.auto_tile_size(float("nan")) == tiled.TILE_SIZE
-    d, _, _ = split_stand  # the synthetic stand: 25 points per m², 250 m tiles
+    d, _, _ = split_stand  # the synthetic stand: 25 points per m², 90,000 points
+    one = trees_tiled(d, tmp_path / "one.gpkg", workers=1)
+    assert one["tiles"] == 1  # an area of at most ONE_TILE_POINTS is one tile
+    summ = pyogrio.read_dataframe(tmp_path / "one.gpkg", layer="summary")
+    assert summ.tiles[0] == 1 and np.isnan(summ.tile_size[0])
+    monkeypatch.setattr(tiled, "ONE_TILE_POINTS", 10_000)  # a larger area: 250 m tiles
     trees_tiled(d, tmp_path / "a.gpkg", workers=1)
     summ = pyogrio.read_dataframe(tmp_path / "a.gpkg", layer="summary")
     assert summ.tile_size[0] == pytest.approx(250.0, abs=0.5)
@@ -109,7 +124,6 @@ def test_tiles_look_for_a_planting_lattice_as_one_file_does(tmp_path):
     from pyproj import CRS as PCRS
 
     from lidartrees_gis.report.evaluate import evaluate_trees
-    from lidartrees_gis.als.pipeline import trees_file
     from lidartrees_gis.synthetic import CRS as SCRS
     from lidartrees_gis.synthetic import StandParams, make_stand
     from lidartrees_gis.als.trees import TreeParams
@@ -118,14 +132,14 @@ def test_tiles_look_for_a_planting_lattice_as_one_file_does(tmp_path):
     f = tmp_path / "stand.laz"
     write_points(f, pts.x, pts.y, pts.z, crs=PCRS.from_user_input(SCRS),
                  classification=pts.classification)
-    whole = trees_file(f, tmp_path / "one.gpkg")
+    whole = trees_run(f, tmp_path / "one.gpkg")
     tiled = trees_tiled(f, tmp_path / "tiled.gpkg", tile_size=30, workers=1)
     off = trees_tiled(f, tmp_path / "off.gpkg", tile_size=30, workers=1,
                       params=TreeParams(planting="none"))
     assert tiled["tiles"] == tiled["planting_tiles"] == 6 and off["planting_tiles"] == 0
     assert tiled["planting_detected"] == "3.00x2.00" and off["gap_trees"] == 0
     assert tiled["gap_trees"] >= 10 and tiled["trees"] == off["trees"] + tiled["gap_trees"]
-    ids = set(whole["result"]["table"]["tree_id"])
+    ids = set(whole["tree_ids"])
     assert len(ids ^ set(tiled["tree_ids"])) <= 2
     tops = pyogrio.read_dataframe(tmp_path / "tiled.gpkg", layer="tree_tops")
     e = evaluate_trees(tops.x, tops.y, tops.height, truth["x"], truth["y"], truth["height"])
@@ -140,7 +154,6 @@ def test_plantation_mode_in_tiles_reports_the_stocking_of_one_file(tmp_path):
     of the whole file."""
     from pyproj import CRS as PCRS
 
-    from lidartrees_gis.als.pipeline import trees_file
     from lidartrees_gis.synthetic import CRS as SCRS
     from lidartrees_gis.synthetic import StandParams, make_stand
     from lidartrees_gis.als.trees import TreeParams
@@ -150,7 +163,7 @@ def test_plantation_mode_in_tiles_reports_the_stocking_of_one_file(tmp_path):
     write_points(f, pts.x, pts.y, pts.z, crs=PCRS.from_user_input(SCRS),
                  classification=pts.classification)
     p = TreeParams(spacing=(3.0, 2.0))
-    whole = trees_file(f, tmp_path / "one.gpkg", params=p)
+    whole = trees_run(f, tmp_path / "one.gpkg", params=p)
     out = tmp_path / "tiled.gpkg"
     assert main(["trees", str(f), str(out), "-spacing", "3x2", "-tile_size", "30", "-q"]) == 0
     s = pyogrio.read_dataframe(out, layer="summary").iloc[0]
@@ -182,7 +195,7 @@ def test_tiles_choose_the_cell_size_of_one_file_in_sparse_data(tmp_path):
     0.65 m cells instead of 0.7 m."""
     from pyproj import CRS as PCRS
 
-    from lidartrees_gis.als.pipeline import load_chm
+    from lidartrees_gis.als.chain import area_surfaces
     from lidartrees_gis.synthetic import CRS as SCRS
     from lidartrees_gis.synthetic import StandParams, make_stand
 
@@ -190,10 +203,11 @@ def test_tiles_choose_the_cell_size_of_one_file_in_sparse_data(tmp_path):
     f = tmp_path / "sparse.laz"
     write_points(f, pts.x, pts.y, pts.z, crs=PCRS.from_user_input(SCRS),
                  classification=pts.classification)
-    _, spec, _, built = load_chm(f)
+    built, plan, _ = area_surfaces(f)
     r = trees_tiled(f, tmp_path / "t.gpkg", tile_size=30, workers=1)
-    assert r["res"] == spec.res == 0.7
+    assert r["res"] == built["spec"].res == plan.res == 0.7
     assert built["density"] == pytest.approx(1.94, abs=0.03)
+    assert plan.density == pytest.approx(1.94, abs=0.06)
 
 
 def test_dask_cluster_gives_the_same_trees(split_stand, tmp_path):
@@ -361,9 +375,17 @@ def test_cli_runs_a_folder_in_tiles(split_stand, tmp_path):
     assert r["files"] == 3 and r["tiles"] >= 1 and r["trees"] > 560
     summ = pyogrio.read_dataframe(out, layer="summary")
     assert int(summ.trees[0]) == r["trees"] and summ.buffer[0] >= 20
+    # the quick look and the TreeX CSV of a folder, as of one file (issue 22)
     assert main(["trees", str(d), str(tmp_path / "p.gpkg"), "-png", str(tmp_path / "q.png"),
-                 "-q"]) == 1
-    assert not (tmp_path / "p.gpkg").exists()
+                 "-csv", str(tmp_path / "t.csv"), "-tile_size", "30", "-workers", "1", "-q"]) == 0
+    from PIL import Image
+
+    png = Image.open(tmp_path / "q.png")
+    assert f"{r['trees']:,} trees" in png.text["Description"]
+    rows = (tmp_path / "t.csv").read_text().splitlines()
+    assert rows[0] == "id,row,col,x,y,height,crown_area" and len(rows) == r["trees"] + 1
+    tops = pyogrio.read_dataframe(tmp_path / "p.gpkg", layer="tree_tops")
+    assert {int(line.split(",")[0]) for line in rows[1:]} == set(tops.tree_id)
 
 
 @pytest.mark.realdata

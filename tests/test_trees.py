@@ -120,8 +120,8 @@ def test_every_crown_holds_exactly_its_top(method):
 
 
 def test_synthetic_stand_default_method_meets_targets(stand):
-    from lidartrees_gis.als.pipeline import compute_surfaces
-    from lidartrees_gis.io.options import open_input
+    from lidartrees_gis.als.surfaces import SurfaceOptions, compute_surfaces
+    from lidartrees_gis.io.options import ReadOptions
     from lidartrees_gis.synthetic import write_xyz_seed_dialect
 
     pts, truth = stand
@@ -131,7 +131,8 @@ def test_synthetic_stand_default_method_meets_targets(stand):
     with tempfile.TemporaryDirectory() as d:
         p = Path(d) / "s.xyz"
         write_xyz_seed_dialect(p, pts)
-        s = compute_surfaces(open_input(p, a_srs="EPSG:29194"), 0.5, dtm="auto")
+        s = compute_surfaces(ReadOptions(a_srs="EPSG:29194").open(p), 0.5,
+                             SurfaceOptions(dtm="auto", chm="max"))
     res = detect_trees(s["chm"], s["spec"], TreeParams())
     a = accuracy(res["table"], truth, max_dist=1.0)
     assert a["f_score"] >= 0.95

@@ -191,10 +191,18 @@ def resolve_auto(chm, res: float, p: TreeParams) -> dict:
         hd = float(p.dominant_height)
     else:
         hd = float(np.percentile(canopy, 95)) if canopy.size else max(p.min_height, 1.0)
-    sigma = SIGMA_FACTOR * L
-    smooth = f"gauss:{sigma:.3f}" if sigma / res >= 1.0 / 3.0 else "none"
+    smooth, sigma = auto_smoothing(L, res)
     return {"crown_scale": float(L), "crown_scale_source": src, "dominant_height": hd,
-            "sigma": sigma if smooth != "none" else 0.0, "smooth": smooth}
+            "sigma": sigma, "smooth": smooth}
+
+
+def auto_smoothing(crown_scale: float, res: float) -> tuple:
+    """``-smooth auto``: ``(filter, sigma)``, a Gaussian of ``SIGMA_FACTOR`` crown scales
+    (``gauss:SIGMA``), or ``none`` when that is under a third of a cell."""
+    sigma = SIGMA_FACTOR * float(crown_scale)
+    if sigma / res >= 1.0 / 3.0:
+        return f"gauss:{sigma:.3f}", sigma
+    return "none", 0.0
 
 
 def find_tops(chm_s, res, p: TreeParams, auto: dict | None = None):

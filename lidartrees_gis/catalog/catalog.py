@@ -14,31 +14,40 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import CRSError, InputError
+from ..io.options import ReadOptions
 from .inputs import ept_crs, expand_inputs, is_ept
 
 
 @dataclass
 class Catalog:
-    """Point files with their XY bounds, point counts and one CRS."""
+    """Point files with their XY bounds, point counts, one CRS and how they are read.
+
+    A single file is a catalog of one: every chain plans, tiles and merges the same way for
+    one file and for a whole flight.
+    """
 
     files: list
-    bounds: list  # per file (xmin, ymin, xmax, ymax)
+    bounds: list  # per file (xmin, ymin, xmax, ymax), in the output CRS
     counts: list
     crs: object = None
-    read_kw: dict = field(default_factory=dict)
+    read: ReadOptions = field(default_factory=ReadOptions)
+    skipped: int = 0  # malformed XYZ lines skipped (with read.skip_invalid)
+    repro: object = None  # the -t_srs reprojection (of the first file), or None
 
     @classmethod
-    def open(cls, inputs, *, a_srs=None, **read_kw) -> "Catalog":
-        """Read the headers (LAS) or scan the files (XYZ) named by ``inputs``."""
-        from ..io.points import open_points
-
+    def open(cls, inputs, read: ReadOptions | None = None) -> "Catalog":
+        """Read the headers (LAS) or scan the files (XYZ) named by ``inputs`` (a file, a folder,
+        a glob, a list or a .vpc, see :func:`~lidartrees_gis.catalog.inputs.expand_inputs`)."""
+        read = read or ReadOptions()
         files = expand_inputs(inputs)
-        if a_srs is None:  # EPT nodes often hold no CRS; the index states it
+        if read.a_srs is None:  # EPT nodes often hold no CRS; the index states it
             items = [inputs] if isinstance(inputs, (str, Path)) else list(inputs)
             a_srs = next((ept_crs(i) for i in items if is_ept(i) and Path(str(i)).is_file()), None)
-        bounds, counts, crs = [], [], None
+            if a_srs is not None:
+                read = read.with_crs(a_srs)
+        bounds, counts, crs, skipped, repro = [], [], None, 0, None
         for f in files:
-            src = open_points(f, a_srs=a_srs, **read_kw)
+            src = read.open(f)
             hb = src.header_bounds() if src.format == "las" else None
             if hb is not None and src.count_hint:
                 bounds.append(tuple(hb))
@@ -47,13 +56,24 @@ class Catalog:
                 st = src.scan()
                 bounds.append(tuple(st.bounds))
                 counts.append(int(st.count))
+                skipped += int(st.skipped or 0)
+            repro = repro or src.repro
             if src.crs is not None:
                 if crs is None:
                     crs = src.crs
                 elif not crs.equals(src.crs, ignore_axis_order=True):
                     raise CRSError(f"{f}: CRS {src.crs.to_string()} differs from the other files' "
                                    f"{crs.to_string()}; reproject them first or give -a_srs")
-        return cls(files, bounds, counts, crs, {"a_srs": a_srs, **read_kw})
+        return cls(files, bounds, counts, crs, read, skipped, repro)
+
+    @property
+    def path(self) -> Path:
+        """The file, or the first file of several (for messages)."""
+        return Path(self.files[0])
+
+    def label(self) -> str:
+        """The input in words: the file, or the count of files."""
+        return str(self.files[0]) if len(self.files) == 1 else f"{len(self.files)} files"
 
     @property
     def extent(self) -> tuple:
@@ -77,6 +97,62 @@ class Catalog:
 
 
 @dataclass(frozen=True)
+class TilingOptions:
+    """How an area is cut into tiles and where they run.
+
+    Attributes
+    ----------
+    tile_size : float, optional
+        Tile side (m); None: automatic (one tile for a small area, else from the point density,
+        see :func:`lidartrees_gis.als.area.auto_tile_size`); ``inf``: one tile.
+    buffer : float, optional
+        Buffer around each tile (m); None: the command's default.
+    workers : int, optional
+        Worker processes of the local Dask cluster; None: all cores (this process for a small
+        area); 1: this process.
+    scheduler : str, optional
+        Address of an existing Dask scheduler to run the tiles on.
+    """
+
+    tile_size: float | None = None
+    buffer: float | None = None
+    workers: int | None = None
+    scheduler: str | None = None
+
+    def __post_init__(self):
+        ts = self.tile_size
+        if isinstance(ts, str):
+            low = ts.strip().lower()
+            if low in ("", "auto"):
+                ts = None
+            elif low in ("none", "inf", "0"):
+                ts = math.inf
+            else:
+                try:
+                    ts = float(low)
+                except ValueError:
+                    raise InputError(f"-tile_size: expected metres, auto or none, got {ts!r}") from None
+        if ts is not None and not ts > 0:
+            raise InputError(f"-tile_size must be > 0 m, got {self.tile_size!r}")
+        object.__setattr__(self, "tile_size", None if ts is None else float(ts))
+        for k in ("buffer", "workers"):
+            v = getattr(self, k)
+            if v is not None and not isinstance(v, (int, float)):
+                try:
+                    v = float(v)
+                except ValueError:
+                    raise InputError(f"-{k}: expected a number, got {v!r}") from None
+            object.__setattr__(self, k, v)
+        if self.buffer is not None and not self.buffer >= 0:
+            raise InputError(f"-buffer must be >= 0 m, got {self.buffer!r}")
+        if self.workers is not None:
+            if not self.workers >= 1:
+                raise InputError(f"-workers must be >= 1, got {self.workers!r}")
+            object.__setattr__(self, "workers", int(self.workers))
+        object.__setattr__(self, "scheduler", self.scheduler or None)
+
+
+@dataclass(frozen=True)
 class Tile:
     """One tile: ``core`` (trees whose top is in it belong to it, half-open on the east and
     north edges) and ``box`` (core plus buffer, clipped to the data)."""
@@ -93,31 +169,31 @@ class Tile:
 
 
 def make_tiles(extent, tile_size: float, buffer: float) -> list:
-    """Tiles of ``tile_size`` m aligned to multiples of it, covering ``extent``; the last row and
-    column also hold points exactly on the extent's east/north edge."""
+    """Tiles of ``tile_size`` m aligned to multiples of it, covering ``extent``. The cores of
+    the outer tiles reach to infinity on the area's outer sides, so a tree whose top cell
+    centre lies just outside the points' extent (it is half a cell away at most) is kept, as
+    it is when the area is one tile."""
     if not (tile_size > 0 and buffer >= 0):
         raise InputError(f"-tile_size must be > 0 and -buffer >= 0 (got {tile_size}, {buffer})")
     x0, y0, x1, y1 = extent
+    inf = math.inf
     if math.isinf(tile_size):  # one tile: the whole area
-        return [Tile((0, 0), (x0, y0, x1 + 1e-6, y1 + 1e-6), (x0, y0, x1, y1))]
+        return [Tile((0, 0), (-inf, -inf, inf, inf), (x0, y0, x1, y1))]
     i0, i1 = math.floor(x0 / tile_size), math.floor(x1 / tile_size)
     j0, j1 = math.floor(y0 / tile_size), math.floor(y1 / tile_size)
     if (i1 - i0 + 1) * (j1 - j0 + 1) > 1_000_000:
         raise InputError(f"-tile_size {tile_size} m makes more than a million tiles over "
                          f"{x1 - x0:.0f} x {y1 - y0:.0f} m")
     tiles = []
-    eps = 1e-6
     for j in range(j0, j1 + 1):
         for i in range(i0, i1 + 1):
             cx0, cy0 = i * tile_size, j * tile_size
             cx1, cy1 = cx0 + tile_size, cy0 + tile_size
-            if i == i1:
-                cx1 = max(cx1, x1 + eps)
-            if j == j1:
-                cy1 = max(cy1, y1 + eps)
             box = (max(cx0 - buffer, x0), max(cy0 - buffer, y0), min(cx1 + buffer, x1),
                    min(cy1 + buffer, y1))
-            if box[2] <= box[0] or box[3] <= box[1]:
+            if box[2] < box[0] or box[3] < box[1]:
                 continue
-            tiles.append(Tile((i, j), (cx0, cy0, cx1, cy1), box))
+            core = (-inf if i == i0 else cx0, -inf if j == j0 else cy0,
+                    inf if i == i1 else cx1, inf if j == j1 else cy1)
+            tiles.append(Tile((i, j), core, box))
     return tiles

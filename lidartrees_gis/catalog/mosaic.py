@@ -1,13 +1,17 @@
 """A GeoTIFF over a whole area written window by window as tiles finish."""
 from __future__ import annotations
 
+import json
+
 import numpy as np
 
 
 class MosaicWriter:
-    """A tiled GeoTIFF over the whole area, written window by window as tiles finish."""
+    """A tiled GeoTIFF over the whole area (``spec``), written window by window as tiles finish
+    (float32 with NaN written as ``nodata``, or an integer type)."""
 
-    def __init__(self, tmp_path, spec, *, creation_options=None, tags=None, description=None):
+    def __init__(self, tmp_path, spec, *, creation_options=None, tags=None, description=None,
+                 dtype="float32", nodata="default"):
         import rasterio
 
         from ..io.raster import DEFAULT_CO, NODATA, rio_crs
@@ -18,22 +22,26 @@ class MosaicWriter:
         if spec.width < 16 or spec.height < 16:
             co.pop("TILED", None), co.pop("BLOCKXSIZE", None), co.pop("BLOCKYSIZE", None)
         self.spec = spec
-        self.nodata = NODATA
+        self.dtype = np.dtype(dtype)
+        self.nodata = NODATA if nodata == "default" else nodata
+        if self.dtype.kind != "f" and co.get("PREDICTOR") == "3":
+            co["PREDICTOR"] = "2"
         self.ds = rasterio.open(tmp_path, "w", driver="GTiff", width=spec.width,
-                                height=spec.height, count=1, dtype="float32",
-                                crs=rio_crs(spec.crs), transform=spec.transform, nodata=NODATA,
-                                **co)
-        if tags:
-            import json
-
-            from .. import __version__
-
-            t = {"LIDARTREES_VERSION": __version__}
-            t.update({str(k).upper(): v if isinstance(v, str) else json.dumps(v, default=str)
-                      for k, v in tags.items()})
-            self.ds.update_tags(**t)
+                                height=spec.height, count=1, dtype=self.dtype.name,
+                                crs=rio_crs(spec.crs), transform=spec.transform,
+                                nodata=self.nodata, **co)
+        self.set_tags(tags or {})
         if description:
             self.ds.set_band_description(1, description)
+
+    def set_tags(self, tags: dict) -> None:
+        """Provenance tags (values JSON-encoded when not strings), with the tool's version."""
+        from .. import __version__
+
+        t = {"LIDARTREES_VERSION": __version__}
+        t.update({str(k).upper(): v if isinstance(v, str) else json.dumps(v, default=str)
+                  for k, v in tags.items()})
+        self.ds.update_tags(**t)
 
     def write(self, arr, left, top):
         from rasterio.windows import Window
@@ -41,15 +49,16 @@ class MosaicWriter:
         s = self.spec
         c0 = int(round((left - s.left) / s.res))
         r0 = int(round((s.top - top) / s.res))
-        a = np.asarray(arr, np.float32)
+        a = np.asarray(arr)
         # clip to the mosaic
         rr0, cc0 = max(r0, 0), max(c0, 0)
         rr1, cc1 = min(r0 + a.shape[0], s.height), min(c0 + a.shape[1], s.width)
         if rr1 <= rr0 or cc1 <= cc0:
             return
         a = a[rr0 - r0:rr1 - r0, cc0 - c0:cc1 - c0]
-        self.ds.write(np.where(np.isnan(a), self.nodata, a), 1,
-                      window=Window(cc0, rr0, cc1 - cc0, rr1 - rr0))
+        if self.dtype.kind == "f":
+            a = np.where(np.isnan(a), self.nodata, a)
+        self.ds.write(a.astype(self.dtype), 1, window=Window(cc0, rr0, cc1 - cc0, rr1 - rr0))
 
     def close(self):
         self.ds.close()

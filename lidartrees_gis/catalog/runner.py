@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import os
 
-from ..progress import as_progress, check_cancel
+from ..progress import SubProgress, as_progress, check_cancel
 from .catalog import Catalog
 from .source import READ_CACHE
 
@@ -82,7 +82,8 @@ class TileRunner:
     """Runs tasks ``fn(item, *args)``: in this process (``workers=1``), on a local Dask cluster
     of ``workers`` processes (default: all cores) or on an existing cluster (``scheduler``).
     Use it as a context manager so the cluster is started once for a whole run (the area's
-    windows, then the tiles) and closed at the end."""
+    windows, then the tiles) and closed at the end. A local cluster is started when there are
+    tasks to share (two or more at once): a run of one task stays in this process."""
 
     def __init__(self, workers=None, scheduler=None):
         self.workers = int(workers or os.environ.get("LIDARTREES_WORKERS", 0) or os.cpu_count() or 1)
@@ -90,9 +91,14 @@ class TileRunner:
         self.client = self.cluster = None
 
     def __enter__(self):
-        if self.workers > 1 or self.scheduler:
-            self.client, self.cluster = _client(self.workers, self.scheduler)
+        if self.scheduler:
+            self.start()
         return self
+
+    def start(self) -> None:
+        """Connect to the scheduler or start the local cluster (once)."""
+        if self.client is None and (self.workers > 1 or self.scheduler):
+            self.client, self.cluster = _client(self.workers, self.scheduler)
 
     def __exit__(self, *exc):
         READ_CACHE.clear()  # this process's decompressed files (workers end with the cluster)
@@ -102,15 +108,21 @@ class TileRunner:
             self.cluster.close()
         self.client = self.cluster = None
 
-    def map(self, fn, items, args=(), *, progress=None, ordered=False, label="tile"):
+    def map(self, fn, items, args=(), *, progress=None, ordered=False, label="tile",
+            inner_progress=False):
         """Yield ``fn(item, *args)`` for every item, as they finish (``ordered``: in order).
-        A cancel (or Ctrl-C) cancels the remaining tasks."""
+        A cancel (or Ctrl-C) cancels the remaining tasks. With ``inner_progress``, tasks run in
+        this process get ``progress=`` their share of ``progress`` (a task on Dask reports when
+        it ends)."""
         prog = as_progress(progress)
         n = len(items)
+        if n > 1:
+            self.start()
         if self.client is None:
             for k, it in enumerate(items):
                 check_cancel(prog)
-                yield fn(it, *args)
+                kw = {"progress": SubProgress(prog, k / n, (k + 1) / n)} if inner_progress else {}
+                yield fn(it, *args, **kw)
                 prog.update((k + 1) / n, f"{label} {k + 1}/{n}")
             return
         from dask.distributed import as_completed

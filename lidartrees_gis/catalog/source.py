@@ -35,11 +35,11 @@ class ReadCache:
         self._lock = threading.Lock()  # shared by a process's worker threads
 
     @staticmethod
-    def key(path, read_kw: dict, drop, keep):
+    def key(path, read):
+        """The cache key of a file read with :class:`~lidartrees_gis.io.options.ReadOptions`
+        ``read``."""
         st = Path(path).stat()
-        return (str(Path(path).resolve()), st.st_size, st.st_mtime_ns,
-                repr(sorted(read_kw.items())), tuple(sorted(drop)),
-                None if keep is None else tuple(sorted(keep)))
+        return (str(Path(path).resolve()), st.st_size, st.st_mtime_ns, repr(read))
 
     def get(self, key):
         with self._lock:
@@ -79,10 +79,11 @@ READ_CACHE = ReadCache()
 
 
 class TileSource:
-    """The points of a catalog inside one box, for :func:`~lidartrees_gis.pipeline.compute_surfaces`.
+    """The points of a catalog inside one box, for
+    :func:`~lidartrees_gis.als.surfaces.compute_surfaces`.
 
     Reads every file that intersects the box chunk by chunk and keeps the points inside it;
-    the class filter of :meth:`set_class_filter` applies.
+    the catalog's class filter (``read.drop_class``, ``read.keep_class``) applies.
     """
 
     format = "tile"
@@ -93,16 +94,11 @@ class TileSource:
         self.catalog = catalog
         self.box = tuple(float(v) for v in box)
         self.files = catalog.files_for(self.box)
-        self.path = Path(f"tile {self.box[0]:.0f},{self.box[1]:.0f}")
+        self.path = Path(f"tile {self.box[0]:.0f},{self.box[1]:.0f}") if len(catalog.files) > 1 \
+            else catalog.path
         self.crs = catalog.crs
         self.chunk_size = chunk_size
-        self.drop_classes = frozenset()
-        self.keep_classes = None
         self.dropped: dict = {}
-
-    def set_class_filter(self, drop=None, keep=None) -> None:
-        self.drop_classes = frozenset(int(c) for c in (drop or ()))
-        self.keep_classes = None if keep is None else frozenset(int(c) for c in keep)
 
     def header_bounds(self):
         return self.box
@@ -112,15 +108,15 @@ class TileSource:
         return None
 
     def chunks(self, progress=None):
-        from ..io.points import open_points
+        from ..progress import SubProgress, as_progress
 
         x0, y0, x1, y1 = self.box
         self.dropped = {}
-        cache = READ_CACHE
-        for f in self.files:
-            kw = {k: v for k, v in self.catalog.read_kw.items() if v is not None}
+        cache, read = READ_CACHE, self.catalog.read
+        prog, nf = as_progress(progress), max(len(self.files), 1)
+        for k, f in enumerate(self.files):
             try:
-                key = cache.key(f, kw, self.drop_classes, self.keep_classes)
+                key = cache.key(f, read)
             except OSError:  # gone: open_points says so
                 key = None
             hit = None if key is None else cache.get(key)
@@ -128,10 +124,8 @@ class TileSource:
             if hit is not None:
                 chunks, dropped = hit
             else:
-                src = open_points(f, chunk_size=self.chunk_size, **kw)
-                src.set_class_filter(self.drop_classes, None if self.keep_classes is None
-                                     else sorted(self.keep_classes))
-                chunks = src.chunks()
+                src = read.open(f, chunk_size=self.chunk_size)
+                chunks = src.chunks(SubProgress(prog, k / nf, (k + 1) / nf))
                 if key is not None:
                     kept = []
             for c in chunks:

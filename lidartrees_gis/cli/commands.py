@@ -126,14 +126,14 @@ KEEP_CLASS = Param("keep_class", "str", "Use only points of these LAS classes (c
                    "1,2,3,4,5)", flag="-keep_class", advanced=True)
 CLASSES = (DROP_CLASS, KEEP_CLASS)
 TILES = (
-    Param("tile_size", "str", "Process in square tiles of this side (m), each with a buffer; "
-          "used when INPUT names several files (a folder, a glob, a .txt list or a .vpc) or "
-          "holds more than 20 M points; auto (default) = a side of about 500,000 points (250 m "
-          "in dense data, up to 1000 m in sparse data); none = one tile", flag="-tile_size",
-          advanced=True,
+    Param("tile_size", "str", "Process in square tiles of this side (m), each with a buffer "
+          "(a single file is processed as a catalog of one); auto (default) = one tile for an "
+          "area of at most 1 M points and 1 km across, else a side of about 500,000 points (250 "
+          "m in dense data, up to 1000 m in sparse data); none = one tile", flag="-tile_size",
+          advanced=True, unit="m"),
+    Param("buffer", "float", "Buffer around each tile (default: trees 8 crown scales, at least "
+          "20 m; chm 20 m; grid none, 20 m with -fill mean8)", flag="-buffer", advanced=True,
           unit="m"),
-    Param("buffer", "float", "Buffer around each tile (default: 8 crown scales, at least 20 m)",
-          flag="-buffer", advanced=True, unit="m"),
     Param("workers", "float", "Worker processes of the local Dask cluster (default: all cores, "
           "or this process below 1 M points, where starting a cluster costs more than it "
           "saves; 1 = in this process)", flag="-workers", advanced=True),
@@ -165,7 +165,7 @@ COMMANDS = {
          Param("stat", "choice", "Per-cell statistic of z", flag="-stat",
                choices=("max", "min", "mean", "count"), default="max"),
          Param("fill", "choice", FILL.help, flag="-fill", choices=("mean8", "none"), default="none"),
-         *CLASSES, *READ_GEO, CO, OVERWRITE), "grid", outputs=("output",)),
+         *CLASSES, *TILES, *READ_GEO, CO, OVERWRITE), "grid", outputs=("output",)),
     "chm": Command(
         "chm", "Rasters", "Canopy height model CHM = DSM (highest point per cell) - DTM",
         (INPUT, Param("output", "output", "Output CHM GeoTIFF"), CHM_RES, DTM_AUTO, CHM_KIND,

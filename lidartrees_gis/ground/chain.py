@@ -8,7 +8,8 @@ from .. import __version__
 from ..crs import crs_label
 from ..errors import InputError
 from ..grid import GridAccumulator, GridSpec, fill_gaps, resolve_resolution
-from ..io.options import NOISE_CLASSES, open_input
+from ..io.options import NOISE_CLASSES, ReadOptions
+from ..io.output import OutputOptions
 from ..io.provenance import raster_tags, repro_meta, repro_report
 from ..io.raster import write_geotiff
 from ..progress import SubProgress, as_progress, check_cancel
@@ -66,16 +67,18 @@ def ground_classes(classification, ground, reclassify=False) -> np.ndarray:
     return np.where(open_, decided, c).astype(np.uint8)
 
 
-def ground_file(input, output, *, dtm_out=None, res="auto", params=None, overwrite=False,
-                reclassify=False, a_srs=None, t_srs=None, creation_options=None, progress=None,
-                **read_kw) -> dict:
+def ground_file(input, output, *, dtm_out=None, res="auto", params=None,
+                read: ReadOptions | None = None, out: OutputOptions | None = None,
+                reclassify=False, progress=None) -> dict:
     """Classify ground (class 2) with Kraus & Pfeifer robust interpolation; write the classified
     LAS/LAZ and optionally the DTM GeoTIFF (linear TIN of the ground points, cell sqrt(1/n))."""
     from ..io.lasout import write_classified
     from ..io.output import check_outputs
 
+    out = out or OutputOptions()
+    overwrite, creation_options = out.overwrite, out.creation_options
     check_outputs([(output, "OUTPUT"), (dtm_out, "-dtm")], (input,), overwrite)
-    src = open_input(input, a_srs=a_srs, t_srs=t_srs, **read_kw)
+    src = (read or ReadOptions()).open(input, filtered=False)
     prog = as_progress(progress)
     pts, ground = ground_points(src, params, SubProgress(prog, 0, 0.7))
     check_cancel(prog)

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..grid import GridSpec, resolve_resolution
-from ..io.options import open_input
+from ..io.options import ReadOptions
 from ..io.provenance import raster_tags, repro_report
 from ..io.raster import write_geotiff
 from ..progress import SubProgress, as_progress, check_cancel
@@ -78,8 +78,8 @@ def cluster_roles(X, names, labels, ground_points) -> dict:
 
 
 def dtm_quality_file(input, outdir, *, g="-4:1:0.5", w="1:4:0.5", res="auto", params=None,
-                     seed=0, workers=None, overwrite=False, a_srs=None, t_srs=None, progress=None,
-                     **read_kw) -> dict:
+                     seed=0, workers=None, read: ReadOptions | None = None, overwrite=False,
+                     progress=None) -> dict:
     """Seed 003's DTM quality sweep: the ground filter and a DTM per (g, w) (linear TIN of the
     ground points, the DTM `ground -dtm` and `chm -dtm kp` write), 12 GLCM texture descriptors
     each, PCA (descriptors with |PC1 loading| >= 0.3), k-means with k = 3, a CSV, one hillshade
@@ -117,7 +117,7 @@ def dtm_quality_file(input, outdir, *, g="-4:1:0.5", w="1:4:0.5", res="auto", pa
     if len(combos) < 3:
         raise InputError("-g/-w: the sweep needs at least 3 combinations for 3 clusters")
     prog = as_progress(progress)
-    src = open_input(input, a_srs=a_srs, t_srs=t_srs, **read_kw)
+    src = (read or ReadOptions()).open(input, filtered=False)
     pts = src.read_all(SubProgress(prog, 0, 0.05))
     r = resolve_resolution(src, res)
     spec = GridSpec.from_bounds(pts.x.min(), pts.y.min(), pts.x.max(), pts.y.max(), r, crs=src.crs)

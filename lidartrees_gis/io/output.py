@@ -5,6 +5,7 @@ import contextlib
 import os
 import shutil
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import InputError, OutputError, OutputExistsError
@@ -84,3 +85,28 @@ def atomic_output(path, overwrite: bool = False, *, param: str = "OUTPUT"):
             else:
                 os.unlink(tmp)
         raise
+
+
+@dataclass(frozen=True)
+class OutputOptions:
+    """How outputs are written (GDAL/OGR's options).
+
+    Attributes
+    ----------
+    overwrite : bool
+        Replace existing outputs (``-overwrite``); otherwise they are refused.
+    append : bool
+        Add to an existing GeoPackage's layers (``-append``).
+    nln : str
+        Prefix of the GeoPackage layer names (``-nln``).
+    layer_options : dict, optional
+        GeoPackage layer creation options (``-lco``).
+    creation_options : dict, optional
+        GeoTIFF creation options (``-co``).
+    """
+
+    overwrite: bool = False
+    append: bool = False
+    nln: str = ""
+    layer_options: dict | None = None
+    creation_options: dict | None = None

@@ -11,8 +11,11 @@ if TYPE_CHECKING:
     from .points import PointSource
 
 
-def raster_tags(command: str, src: PointSource, params: dict) -> dict:
-    tags = {"LIDARTREES_COMMAND": command, "LIDARTREES_INPUT": str(src.path),
+def raster_tags(command: str, src: PointSource, params: dict, input=None) -> dict:
+    """GeoTIFF tags of an output made by ``command`` from ``src`` (a point source or a catalog;
+    ``input``: the input as the user named it, default ``src.path``)."""
+    tags = {"LIDARTREES_COMMAND": command,
+            "LIDARTREES_INPUT": str(src.path if input is None else input),
             "LIDARTREES_PARAMETERS": {k: v for k, v in params.items() if v is not None},
             "LIDARTREES_CRS": crs_label(src.crs), "LIDARTREES_TOOL": f"lidartrees_gis {__version__}"}
     tags.update({k.upper().replace("REPROJECTION_", "LIDARTREES_"): v

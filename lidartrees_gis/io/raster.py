@@ -82,23 +82,57 @@ def write_geotiff(path, array, spec, *, overwrite=False, nodata=NODATA, dtype="f
                 ds.set_band_description(1, description)
 
 
+def _spec_of(ds, path) -> GridSpec:
+    import pyproj
+
+    t = ds.transform
+    if abs(t.a + t.e) > 1e-9 * abs(t.a) or t.b or t.d:
+        raise InputError(f"{path}: only north-up rasters with square cells are supported")
+    crs = pyproj.CRS.from_wkt(ds.crs.to_wkt()) if ds.crs else None
+    return GridSpec(t.c, t.f, t.a, ds.width, ds.height, crs)
+
+
+def _band(ds, window=None) -> np.ndarray:
+    arr = ds.read(1, window=window).astype(np.float64)
+    if ds.nodata is not None:
+        arr[arr == ds.nodata] = np.nan
+    return arr
+
+
 def read_raster(path):
     """Read band 1 of a raster: ``(array float64 with NaN nodata, GridSpec, tags)``."""
-    import pyproj
     import rasterio
-
 
     try:
         with rasterio.open(path) as ds:
-            arr = ds.read(1).astype(np.float64)
-            if ds.nodata is not None:
-                arr[arr == ds.nodata] = np.nan
-            t = ds.transform
-            if abs(t.a + t.e) > 1e-9 * abs(t.a) or t.b or t.d:
-                raise InputError(f"{path}: only north-up rasters with square cells are supported")
-            crs = pyproj.CRS.from_wkt(ds.crs.to_wkt()) if ds.crs else None
-            spec = GridSpec(t.c, t.f, t.a, ds.width, ds.height, crs)
-            return arr, spec, ds.tags()
+            spec = _spec_of(ds, path)
+            return _band(ds), spec, ds.tags()
+    except rasterio.errors.RasterioIOError as exc:
+        raise ReadError(f"{path}: cannot read raster ({exc})") from None
+
+
+def read_raster_spec(path) -> GridSpec:
+    """The grid of a raster (north-up, square cells), without reading its cells."""
+    import rasterio
+
+    try:
+        with rasterio.open(path) as ds:
+            return _spec_of(ds, path)
+    except rasterio.errors.RasterioIOError as exc:
+        raise ReadError(f"{path}: cannot read raster ({exc})") from None
+
+
+def read_raster_window(path, spec: GridSpec) -> np.ndarray:
+    """Band 1 of a raster over ``spec``, a window of its own grid (float64, NaN nodata)."""
+    import rasterio
+    from rasterio.windows import Window
+
+    try:
+        with rasterio.open(path) as ds:
+            full = _spec_of(ds, path)
+            c0 = int(round((spec.left - full.left) / full.res))
+            r0 = int(round((full.top - spec.top) / full.res))
+            return _band(ds, Window(c0, r0, spec.width, spec.height))
     except rasterio.errors.RasterioIOError as exc:
         raise ReadError(f"{path}: cannot read raster ({exc})") from None
 

@@ -6,14 +6,14 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io.options import open_input
+from ..io.options import ReadOptions
 from ..io.provenance import repro_report
 from ..progress import SubProgress, as_progress, check_cancel
 from ..report.plots import plot_png
 
 
-def stem_file(input, prefix, *, params=None, overwrite=False, a_srs=None, t_srs=None,
-              progress=None, **read_kw) -> dict:
+def stem_file(input, prefix, *, params=None, read: ReadOptions | None = None, overwrite=False,
+              progress=None) -> dict:
     """Dmax trunk filter (seed 004) on one tree: ``PREFIX_trunk.laz`` (trunk points with a
     ``section`` extra dimension), ``PREFIX_sections.csv`` and ``.gpkg`` (circles),
     ``PREFIX_summary.json`` (DBH at 1.30 m, heights) and ``PREFIX_taper.png``."""
@@ -33,7 +33,7 @@ def stem_file(input, prefix, *, params=None, overwrite=False, a_srs=None, t_srs=
         ("summary", "_summary.json"), ("png", "_taper.png"))}
     check_outputs([(pth, "OUTPUT_PREFIX") for pth in paths.values()], (input,), overwrite)
     prog = as_progress(progress)
-    src = open_input(input, a_srs=a_srs, t_srs=t_srs, **read_kw)
+    src = (read or ReadOptions()).open(input, filtered=False)
     pts = src.read_all(SubProgress(prog, 0, 0.2))
     r = dmax_filter(pts.x, pts.y, pts.z, params, progress=SubProgress(prog, 0.2, 0.8))
     check_cancel(prog)
@@ -88,8 +88,8 @@ def stem_file(input, prefix, *, params=None, overwrite=False, a_srs=None, t_srs=
             "reprojection": repro_report(src)}
 
 
-def profile_file(input, output, *, bin=0.05, sigma=0.3, overwrite=False, a_srs=None,  # noqa: A002
-                 t_srs=None, progress=None, **read_kw) -> dict:
+def profile_file(input, output, *, bin=0.05, sigma=0.3,  # noqa: A002
+                 read: ReadOptions | None = None, overwrite=False, progress=None) -> dict:
     """Roots / stem / canopy segmentation (seed 002): OUTPUT LAS/LAZ with an extra dimension
     ``part`` (1 roots, 2 stem, 3 canopy) and classification 1, plus ``OUTPUT_boundaries.json``,
     ``OUTPUT_boundaries.csv`` and ``OUTPUT_profile.png``."""
@@ -106,7 +106,7 @@ def profile_file(input, output, *, bin=0.05, sigma=0.3, overwrite=False, a_srs=N
     check_outputs([(out, "OUTPUT")] + [(pth, "OUTPUT") for pth in paths.values()], (input,),
                   overwrite)
     prog = as_progress(progress)
-    src = open_input(input, a_srs=a_srs, t_srs=t_srs, **read_kw)
+    src = (read or ReadOptions()).open(input, filtered=False)
     pts = src.read_all(SubProgress(prog, 0, 0.5))
     r = segment_profile(pts.z, bin=bin, sigma=sigma)
     check_cancel(prog)

@@ -1,0 +1,237 @@
+"""The file-level chains of the ALS commands (``grid``, ``chm``, ``trees``, ``compare``): one
+code path for one file and for a whole flight.
+
+Every chain opens its input as an area (a :class:`~lidartrees_gis.catalog.catalog.Catalog` of
+point files, one file being a catalog of one, or a CHM raster), plans it once
+(:func:`lidartrees_gis.als.area.plan_area`: cell size, edge limit, crown scale, tiles), runs its
+per-tile function (:mod:`lidartrees_gis.als.tile`) in this process or on Dask, and merges the
+tiles' results into its outputs as they come (:mod:`lidartrees_gis.als.sinks`, mosaics), each
+written to a temporary file renamed at the end.
+"""
+from __future__ import annotations
+
+import contextlib
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from ..catalog.catalog import Catalog, TilingOptions
+from ..catalog.inputs import is_catalog_input
+from ..catalog.mosaic import MosaicWriter
+from ..catalog.raster import RasterArea, is_raster
+from ..catalog.runner import TileRunner, default_workers
+from ..crs import crs_label
+from ..errors import InputError
+from ..grid import GridSpec
+from ..io.options import ReadOptions, filter_report
+from ..io.output import OutputOptions, atomic_output, check_outputs
+from ..io.provenance import raster_tags, repro_meta, repro_report
+from ..progress import SubProgress, as_progress
+from .area import AreaPlan, plan_area
+from .sinks import GpkgTreeLayers, QuickLook, Tally, TreeLayers, TreesSummary, TreexCsv
+from .surfaces import SurfaceOptions, box_surfaces
+from .tile import tile_trees, warn_sparse_plantation
+from .trees import TreeParams, auto_smoothing
+
+
+def open_area(input, read: ReadOptions | None = None):
+    """The area of ``input``: a CHM raster (``.tif``, for ``trees`` and ``compare``) or a
+    catalog of point files (a file, folder, glob, list, .vpc or ept.json)."""
+    read = read or ReadOptions()
+    if isinstance(input, (str, Path)) and is_raster(input) and not is_catalog_input(input):
+        return RasterArea.open(input, read.a_srs)
+    return Catalog.open(input, read)
+
+
+def runner_for(area, tiling: TilingOptions) -> TileRunner:
+    """Where the tiles of ``area`` run: a local Dask cluster or an existing one, or this process
+    (small areas, one tile)."""
+    workers = default_workers(tiling.workers, tiling.scheduler, area.count)
+    return TileRunner(workers, tiling.scheduler)
+
+
+def run_tiles(runner: TileRunner, fn, plan: AreaPlan, args, ready=None, progress=None):
+    """Yield ``fn(tile, *args)`` for the plan's tiles as they finish; ``ready``: the one tile's
+    surfaces, computed while planning."""
+    if ready is not None:
+        yield fn(plan.tiles[0], *args, surfaces=ready, progress=progress)
+        return
+    yield from runner.map(fn, list(plan.tiles), args, progress=progress, inner_progress=True)
+
+
+def _result(area, plan: AreaPlan, summary: Tally) -> dict:
+    """What every chain reports of its area, its plan and what its tiles read."""
+    return {"crs": crs_label(area.crs), "files": len(area.files),
+            "points": getattr(area, "count", None) if isinstance(area, Catalog) else None,
+            "points_read": summary.points or None, "tiles": len(plan.tiles),
+            "buffer": round(plan.buffer, 2) if len(plan.tiles) > 1 else None, "res": plan.res,
+            **filter_report(summary.dropped), "outlier_points": summary.outliers or None,
+            "skipped": getattr(area, "skipped", 0) or None, "reprojection": repro_report(area)}
+
+
+def _trees_meta(input, area, params: TreeParams, plan: AreaPlan, surface: SurfaceOptions) -> dict:
+    meta = {"lidartrees_version": __version__, "input": str(input),
+            "files": [str(f) for f in area.files], "res": plan.res, "dtm": surface.dtm,
+            "chm": surface.chm if isinstance(area, Catalog) else "input raster",
+            "fill": surface.fill, "outliers": surface.outliers, **params.as_dict(),
+            "crown_scale_source": plan.crown_scale_source, "tiles": len(plan.tiles),
+            "buffer": plan.buffer}
+    if isinstance(area, Catalog):
+        meta.update(area.read.describe())
+    meta.update({k: v for k, v in repro_meta(area).items() if v is not None})
+    return meta
+
+
+def trees_run(input, output=None, *, params: TreeParams | None = None,
+              surface: SurfaceOptions | None = None, read: ReadOptions | None = None,
+              tiling: TilingOptions | None = None, out: OutputOptions | None = None, png=None,
+              csv=None, chm_out=None, progress=None) -> dict:
+    """Tree tops, crowns and a stand summary from points or a CHM, into a GeoPackage.
+
+    Parameters
+    ----------
+    input : str or Path or list
+        Point files (a file, folder, glob, list or .vpc) or a CHM GeoTIFF.
+    output : str or Path, optional
+        The GeoPackage (layers ``tree_tops``, ``crowns``, ``summary`` and, in plantation mode,
+        ``gaps``); None keeps the layers in memory (``result["layers"]``).
+    params : TreeParams
+        Detection (default: automatic smoothing and window; ``spacing`` for plantation mode).
+    surface, read, tiling, out : SurfaceOptions, ReadOptions, TilingOptions, OutputOptions
+    png, csv, chm_out : str or Path, optional
+        Also write the quick-look PNG, the TreeX-layout CSV, the CHM GeoTIFF.
+
+    Returns
+    -------
+    dict: ``output``, ``trees``, the summary's figures, ``tree_ids``, what was read.
+    """
+    p = params or TreeParams()
+    surface, read = surface or SurfaceOptions(), read or ReadOptions()
+    tiling, out = tiling or TilingOptions(), out or OutputOptions()
+    if output is not None and Path(output).suffix.lower() != ".gpkg":
+        raise InputError(f"OUTPUT: {output}: expected a .gpkg file name")
+    outputs = [(output, "OUTPUT", out.overwrite or out.append), (png, "-png"), (csv, "-csv"),
+               (chm_out, "-chm_out")]
+    check_outputs(outputs, (), out.overwrite)
+    prog = as_progress(progress)
+    area = open_area(input, read)
+    check_outputs(outputs, area.files, out.overwrite)
+    with runner_for(area, tiling) as runner:
+        prog.update(0.01, "measuring the area")
+        plan, ready = plan_area(area, surface, tiling, runner=runner, params=p, keep=True,
+                                progress=SubProgress(prog, 0.02, 0.45))
+        p = replace(p, crown_scale=plan.crown_scale, dominant_height=plan.dominant_height)
+        if p.spacing is not None and np.isfinite(plan.density):
+            warn_sparse_plantation(plan.density)
+        summary = TreesSummary()
+        with contextlib.ExitStack() as stack:
+            sinks = _trees_sinks(stack, input, output, area, p, plan, surface, out, csv, chm_out,
+                                 png)
+            args = (area, p, plan, surface, bool(chm_out or png))
+            n = len(plan.tiles)
+            for done, r in enumerate(run_tiles(runner, tile_trees, plan, args, ready,
+                                               SubProgress(prog, 0.45, 0.95)), 1):
+                summary.add(r)
+                # the last wave of tiles is written as it comes, while the other workers finish
+                sinks["layers"].add(r, flush=n - done < runner.workers)
+                for k in ("csv", "quicklook"):
+                    if sinks.get(k) is not None:
+                        sinks[k].add(r)
+                if sinks.get("chm") is not None:
+                    sinks["chm"].write(r["chm"], r["chm_left"], r["chm_top"])
+            smooth = auto_smoothing(plan.crown_scale, plan.res)[0] if p.smooth == "auto" else p.smooth
+            row = summary.row(p, plan, smooth)
+            sinks["layers"].finish(row, p.spacing is not None)
+        if png:
+            sinks["quicklook"].write(png, _title(row, input), out.overwrite)
+    prog.update(1.0, "done")
+    return _trees_result(output, area, plan, summary, row, p, sinks["layers"], surface)
+
+
+def _trees_sinks(stack, input, output, area, p, plan, surface, out, csv, chm_out, png) -> dict:
+    """The open outputs of a trees run (each a temporary file renamed when ``stack`` closes)."""
+    sinks = {}
+    gspec = GridSpec.from_bounds(*area.extent, plan.res, crs=area.crs)
+    if output is None:
+        sinks["layers"] = TreeLayers(area.crs, p.method, out.nln)
+    else:
+        from ..io.vector import start_from_existing
+
+        tmp = stack.enter_context(atomic_output(output, overwrite=True))
+        existing = start_from_existing(Path(output), tmp, out.append)
+        sinks["layers"] = GpkgTreeLayers(tmp, area.crs, p.method, out.nln, existing=existing,
+                                         metadata=_trees_meta(input, area, p, plan, surface),
+                                         layer_options=out.layer_options)
+    if csv:
+        ctmp = stack.enter_context(atomic_output(csv, out.overwrite, param="-csv"))
+        sinks["csv"] = TreexCsv(ctmp, gspec)
+        stack.callback(sinks["csv"].close)
+    if chm_out:
+        mtmp = stack.enter_context(atomic_output(chm_out, out.overwrite, param="-chm_out"))
+        sinks["chm"] = MosaicWriter(mtmp, gspec, creation_options=out.creation_options,
+                                    description="canopy height (m)",
+                                    tags=raster_tags("trees", area, {"res": plan.res}, input))
+        stack.callback(sinks["chm"].close)
+    if png:
+        sinks["quicklook"] = QuickLook(gspec)
+    return sinks
+
+
+def _title(row: dict, source) -> str:
+    from ..report.quicklook import quicklook_title
+
+    return quicklook_title(row, source if not isinstance(source, (list, tuple)) else None)
+
+
+def _round(v, n):
+    """Round a number for reports; NaN and None stay as they are."""
+    try:
+        return round(float(v), n) if np.isfinite(v) else v
+    except (TypeError, ValueError):
+        return v
+
+
+def _trees_result(output, area, plan, summary, row, p, layers, surface) -> dict:
+    out = {"output": None if output is None else str(output), "trees": int(row["trees"]),
+           **_result(area, plan, summary),
+           "chm": "input raster" if isinstance(area, RasterArea) else surface.chm,
+           "smooth": row["smooth"], "tops": row["tops"],
+           "crown_scale": None if plan.crown_scale is None else round(plan.crown_scale, 3),
+           "mean_height": _round(row["mean_height"], 2),
+           "mean_crown_diameter": _round(row["mean_crown_diameter"], 2),
+           "trees_per_ha": _round(row["trees_per_ha"], 1),
+           "gap_trees": int(row["gap_trees"]),
+           "planting_detected": row["planting_detected"] or None,
+           "planting_tiles": int(row["planting_tiles"]),
+           "tree_ids": summary.tree_ids}
+    if p.spacing is not None:
+        out.update({k: row[k] for k in ("spacing", "row_azimuth", "planting_positions",
+                                         "missing_trees")})
+        out["stocking_pct"] = _round(row["stocking_pct"], 2)
+    if output is None:
+        out["layers"] = layers.frames()
+    return out
+
+
+def area_surfaces(input, *, surface: SurfaceOptions | None = None,
+                  read: ReadOptions | None = None, params: TreeParams | None = None,
+                  progress=None) -> tuple:
+    """The surfaces of a whole area as one tile, in memory (``compare``, the Python API):
+    ``(surfaces, plan, area)``. The area is planned as every chain plans it (cell size, edge
+    limit and, with ``params``, crown scale), so its CHM is the one ``chm`` and ``trees`` make
+    of an area of one tile."""
+    surface, read = surface or SurfaceOptions(), read or ReadOptions()
+    prog = as_progress(progress)
+    area = open_area(input, read)
+    with TileRunner(1) as runner:
+        plan, ready = plan_area(area, surface, TilingOptions(tile_size=float("inf")),
+                                runner=runner, params=params, keep=True,
+                                progress=SubProgress(prog, 0.02, 1.0))
+        s = ready if ready is not None else box_surfaces(
+            area, plan.tiles[0].box, plan.res, surface, max_edge=plan.max_edge,
+            progress=SubProgress(prog, 0.1, 1.0))
+    if s is None:
+        raise InputError(f"{area.label()}: no points")
+    return s, plan, area

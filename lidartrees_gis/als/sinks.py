@@ -1,0 +1,350 @@
+"""Where the trees of the tiles go, as the tiles finish: the GeoPackage layers (tops, crowns,
+gaps, summary), the same layers in memory (the Python API), a CSV in TreeX's layout and the
+quick-look PNG; and the stand summary accumulated over the tiles (so the calling process holds
+one batch of trees at a time, whatever the size of the area)."""
+from __future__ import annotations
+
+import json
+import math
+import warnings
+
+import numpy as np
+
+from ..errors import OutputExistsError
+from .metrics import tree_ids
+from .tile import TREE_FIELDS
+
+#: trees written to the GeoPackage together (one write per batch, not two per tile)
+BATCH_TREES = 20_000
+#: the quick look's largest side (pixels of the CHM drawn); larger areas are drawn coarser
+QUICKLOOK_CELLS = 2_000
+
+
+def stocking_fields(spacing, azimuth: float, st: dict) -> dict:
+    """The summary fields of plantation mode from the counts of
+    :func:`lidartrees_gis.als.stocking.stocking` (``expected, stocked, missing, extra,
+    planted_area_ha``; summed over the tiles)."""
+    e = st["expected"]
+    return {"spacing": f"{spacing[0]:g}x{spacing[1]:g}", "row_azimuth": azimuth,
+            "planting_positions": e, "stocked_positions": st["stocked"],
+            "missing_trees": st["missing"], "extra_tops": st["extra"],
+            "stocking_pct": 100.0 * st["stocked"] / e if e else float("nan"),
+            "planted_per_ha": 1e4 / (spacing[0] * spacing[1]),
+            "planted_area_ha": st["planted_area_ha"]}
+
+
+class Tally:
+    """Points read (with the buffers), outliers removed and points per dropped class, summed over
+    the tiles of any chain."""
+
+    def __init__(self):
+        self.points, self.outliers, self.dropped = 0, 0, {}
+
+    def add(self, r: dict) -> None:
+        self.points += r["points"]
+        self.outliers += r.get("outlier_points") or 0
+        for c, v in r["dropped"].items():
+            self.dropped[c] = self.dropped.get(c, 0) + v
+
+
+class TreesSummary(Tally):
+    """The stand summary of an area, summed tile by tile."""
+
+    STOCK = ("expected", "stocked", "missing", "extra", "planted_area_ha")
+
+    def __init__(self):
+        super().__init__()
+        self.n, self.hsum, self.h2sum, self.dsum = 0, 0.0, 0.0, 0.0
+        self.canopy, self.gap_trees = 0, 0
+        self.lattices, self.azimuths, self.ids = [], [], []
+        self.stock = dict.fromkeys(self.STOCK, 0)
+        self.stock["planted_area_ha"] = 0.0
+
+    def add(self, r: dict) -> None:
+        super().add(r)
+        self.ids.append(np.asarray(r["tree_id"], np.int64))
+        h = np.asarray(r["height"], float)
+        self.n += h.size
+        self.hsum += float(h.sum())
+        self.h2sum += float((h ** 2).sum())
+        self.dsum += float(np.sum(r["crown_diameter"]))
+        self.canopy += r["canopy_cells"]
+        self.gap_trees += r["gap_trees"]
+        if r["planting"]:
+            self.lattices.append(tuple(r["planting"]))
+        st = r["stocking"]
+        if st is not None:
+            for k in self.STOCK:
+                self.stock[k] += st[k]
+            self.azimuths.append(st["azimuth"])
+
+    @property
+    def tree_ids(self) -> np.ndarray:
+        return np.concatenate(self.ids) if self.ids else np.empty(0, np.int64)
+
+    @property
+    def planting(self) -> str:
+        """The median spacings of the tiles that found a planting lattice under their tops."""
+        if not self.lattices:
+            return ""
+        return "{:.2f}x{:.2f}".format(*np.median(np.asarray(self.lattices), axis=0))
+
+    def row(self, params, plan, smooth: str) -> dict:
+        """The summary layer's one row."""
+        n, res = self.n, plan.res
+        area_ha = self.canopy * res * res / 1e4  # the area processed: cells with a canopy height
+        mean_h = self.hsum / n if n else np.nan
+        sd_h = float(np.sqrt(max(self.h2sum - n * mean_h ** 2, 0.0) / (n - 1))) if n > 1 else np.nan
+        row = {"trees": n, "area_ha": area_ha, "trees_per_ha": n / area_ha if area_ha else np.nan,
+               "mean_height": mean_h, "sd_height": sd_h,
+               "mean_crown_diameter": self.dsum / n if n else np.nan,
+               "method": params.method, "smooth": smooth,
+               "tops": params.tops_finder if params.method != "watershed" else "watershed basins",
+               "res": res, "crown_scale": plan.crown_scale, "dominant_height": plan.dominant_height,
+               "tiles": len(plan.tiles),
+               "tile_size": plan.tile_size if math.isfinite(plan.tile_size) else np.nan,
+               "buffer": plan.buffer, "points": self.points, "outlier_points": self.outliers,
+               "dropped_classes": ",".join(f"{c}:{v}" for c, v in sorted(self.dropped.items())),
+               # trees found by the second look at the empty planting positions, and the
+               # spacings of the lattice found under the tops without -spacing
+               "gap_trees": self.gap_trees, "planting_detected": self.planting,
+               "planting_tiles": len(self.lattices)}
+        if params.spacing is not None:  # plantation mode: the stocking of all tiles
+            az = float(np.median(self.azimuths)) if self.azimuths else np.nan
+            row.update(stocking_fields(params.spacing, az, self.stock))
+        return row
+
+
+def tree_arrays(r: dict) -> dict:
+    """One tile's trees as arrays ordered by tree_id (crowns and tops as WKB)."""
+    order = np.argsort(r["tree_id"], kind="stable")
+    rows = {c: np.asarray(r[c])[order] for c in TREE_FIELDS}
+    for g in ("wkb", "top_wkb"):
+        rows[g] = np.asarray(list(r[g]), dtype=object)[order]
+    return rows
+
+
+def gap_arrays(st: dict, res: float, tile) -> dict:
+    """The empty planting positions of one tile: ids from the position's cell in the global
+    grid (as tree_id), row and position indices of the tile's own lattice."""
+    gx, gy = np.asarray(st["gaps_x"], float), np.asarray(st["gaps_y"], float)
+    return {"gap_id": tree_ids(gx, gy, res), "row_index": np.asarray(st["gaps_j"], np.int64),
+            "position_in_row": np.asarray(st["gaps_i"], np.int64), "x": gx, "y": gy,
+            "tile": np.full(gx.size, "_".join(map(str, tile)), dtype=object)}
+
+
+class TreeLayers:
+    """The layers of a trees run, fed tile by tile: ``add`` a tile's result, ``finish`` with
+    the summary row. This base keeps them in memory (the Python API's frames)."""
+
+    def __init__(self, crs, method: str, nln: str = ""):
+        self.crs, self.method = crs, method
+        self.names = {k: f"{nln}{k}" for k in ("tree_tops", "crowns", "gaps", "summary")}
+        self.parts, self.gaps, self.summary = [], [], None
+
+    def add(self, r: dict, flush: bool = False) -> None:
+        if len(r["tree_id"]):
+            self.parts.append(tree_arrays(r))
+        st = r["stocking"]
+        if st is not None and st["missing"]:
+            self.gaps.append(gap_arrays(st, r["res"], r["tile"]))
+
+    def finish(self, summary: dict, plantation: bool) -> None:
+        self.summary, self.plantation = summary, plantation
+
+    def _fields(self, parts: list) -> dict:
+        data = {c: np.concatenate([p[c] for p in parts]) if parts else
+                np.empty(0, np.int64 if c in ("tree_id", "n_cells") else np.float64)
+                for c in TREE_FIELDS}
+        data["tree_id"] = data["tree_id"].astype(np.int64)
+        data["n_cells"] = data["n_cells"].astype(np.int64)
+        data["method"] = np.full(len(data["tree_id"]), self.method, dtype=object)
+        return data
+
+    def frames(self) -> dict:
+        """``{layer name: GeoDataFrame or DataFrame}``."""
+        import geopandas as gpd
+        import pandas as pd
+        import shapely
+
+        attrs = pd.DataFrame(self._fields(self.parts))
+        wkb = [np.concatenate([p[g] for p in self.parts]) if self.parts else np.empty(0, object)
+               for g in ("top_wkb", "wkb")]
+        crs = self.crs.to_wkt() if self.crs is not None else None
+        out = {self.names["tree_tops"]: gpd.GeoDataFrame(attrs.copy(), crs=crs,
+                                                         geometry=shapely.from_wkb(wkb[0])),
+               self.names["crowns"]: gpd.GeoDataFrame(attrs.copy(), crs=crs,
+                                                      geometry=shapely.from_wkb(wkb[1]))}
+        if self.plantation:
+            g = {k: np.concatenate([p[k] for p in self.gaps]) for k in self.gaps[0]} \
+                if self.gaps else {k: np.empty(0) for k in ("gap_id", "row_index",
+                                                            "position_in_row", "x", "y", "tile")}
+            out[self.names["gaps"]] = gpd.GeoDataFrame(g, crs=crs,
+                                                       geometry=shapely.points(g["x"], g["y"]))
+        out[self.names["summary"]] = pd.DataFrame([self.summary])
+        return out
+
+
+class GpkgTreeLayers(TreeLayers):
+    """The layers written into the (temporary) GeoPackage ``path`` as the tiles come: the
+    workers' WKB goes to GDAL as it is (``pyogrio.raw.write``), one write per
+    :data:`BATCH_TREES` trees; the summary table last. ``existing``: layers of the file that are
+    appended to (``-append``); appending trees a layer already holds is refused."""
+
+    def __init__(self, path, crs, method: str, nln="", *, existing=(), metadata=None,
+                 layer_options=None):
+        super().__init__(crs, method, nln)
+        self.path, self.existing, self.created = path, set(existing), set()
+        self.meta = {k: (v if isinstance(v, str) else json.dumps(v, default=str))
+                     for k, v in (metadata or {}).items()}
+        self.lco = layer_options or None
+        self.wkt = crs.to_wkt() if crs is not None else None
+        self.pending, self.pending_rows = [], 0
+        self.old_ids = self._existing_ids()
+
+    def _existing_ids(self) -> set:
+        import pyogrio
+
+        name = self.names["tree_tops"]
+        if name not in self.existing:
+            return set()
+        old = pyogrio.read_dataframe(self.path, layer=name, columns=["tree_id"],
+                                     read_geometry=False)
+        return set(old["tree_id"].tolist()) if "tree_id" in old.columns else set()
+
+    def _new(self, layer) -> bool:
+        new = layer not in self.existing and layer not in self.created
+        self.created.add(layer)
+        return new
+
+    def _raw(self, wkb, fields: dict, layer, geometry_type) -> None:
+        import pyogrio.raw
+
+        new = self._new(layer)
+        pyogrio.raw.write(self.path, wkb, list(fields.values()), list(fields), layer=layer,
+                          driver="GPKG", geometry_type=geometry_type, crs=self.wkt,
+                          append=not new, layer_options=self.lco if new else None,
+                          layer_metadata=self.meta if new else None)
+
+    def add(self, r: dict, flush: bool = False) -> None:
+        if len(r["tree_id"]):
+            dup = self.old_ids.intersection(np.asarray(r["tree_id"]).tolist()) \
+                if self.old_ids else ()
+            if dup:
+                raise OutputExistsError(
+                    f"{self.path}: -append: layer {self.names['tree_tops']} already holds "
+                    f"{len(dup):,} of these trees (same tree_id: the same area twice?); use "
+                    "-overwrite to replace the layers, or append other areas only")
+            self.pending.append(tree_arrays(r))
+            self.pending_rows += len(r["tree_id"])
+        if flush or self.pending_rows >= BATCH_TREES:
+            self.flush()
+        st = r["stocking"]
+        if st is not None and st["missing"]:
+            import shapely
+
+            g = gap_arrays(st, r["res"], r["tile"])
+            self._raw(shapely.to_wkb(shapely.points(g["x"], g["y"])), g, self.names["gaps"],
+                      "Point")
+
+    def flush(self) -> None:
+        if self.pending:
+            data = self._fields(self.pending)
+            for layer, g, kind in (("tree_tops", "top_wkb", "Point"), ("crowns", "wkb", "Polygon")):
+                self._raw(np.concatenate([p[g] for p in self.pending]), data, self.names[layer],
+                          kind)
+        self.pending, self.pending_rows = [], 0
+
+    def finish(self, summary: dict, plantation: bool) -> None:
+        import pandas as pd
+        import pyogrio
+
+        self.flush()
+        for layer, kind in (("tree_tops", "Point"), ("crowns", "Polygon")):
+            if self.names[layer] not in self.created | self.existing:  # no tree: empty layers
+                data = self._fields([])
+                self._raw(np.empty(0, object), data, self.names[layer], kind)
+        if plantation and self.names["gaps"] not in self.created | self.existing:
+            import shapely
+
+            g = gap_arrays({"gaps_x": [], "gaps_y": [], "gaps_i": [], "gaps_j": []}, 1.0, ())
+            self._raw(shapely.to_wkb(shapely.points(g["x"], g["y"])), g, self.names["gaps"],
+                      "Point")
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message=".*geometry.*")
+            pyogrio.write_dataframe(pd.DataFrame([summary]), self.path,
+                                    layer=self.names["summary"], driver="GPKG",
+                                    append=self.names["summary"] in self.existing)
+
+
+class TreexCsv:
+    """The trees in TreeX's table layout (``id, row, col, x, y, height, crown_area``): ``id``
+    is the GeoPackage's ``tree_id``; ``row, col`` the top's cell in the area's grid."""
+
+    def __init__(self, path, spec):
+        self.fh = open(path, "w", encoding="utf-8")
+        self.spec = spec
+        self.fh.write("id,row,col,x,y,height,crown_area\n")
+
+    def add(self, r: dict) -> None:
+        t = tree_arrays(r)
+        rows, cols = self.spec.cell_index(t["x"], t["y"])
+        for i in range(len(t["tree_id"])):
+            self.fh.write(f"{t['tree_id'][i]},{rows[i]},{cols[i]},{t['x'][i]:.3f},"
+                          f"{t['y'][i]:.3f},{t['height'][i]:.3f},{t['crown_area'][i]:.4f}\n")
+
+    def close(self) -> None:
+        self.fh.close()
+
+
+class QuickLook:
+    """The quick look of an area, assembled from the tiles: their core CHMs on a canvas of at
+    most :data:`QUICKLOOK_CELLS` a side (coarser cells, the highest of the cells they cover,
+    for large areas), the crowns and the tops."""
+
+    def __init__(self, spec):
+        from ..grid import GridSpec
+
+        k = max(1, math.ceil(max(spec.width, spec.height) / QUICKLOOK_CELLS))
+        self.k, self.fine = k, spec
+        self.spec = spec if k == 1 else GridSpec.from_bounds(*spec.bounds, spec.res * k,
+                                                             crs=spec.crs)
+        self.chm = np.full(self.spec.shape, np.nan)
+        self.crowns, self.x, self.y = [], [], []
+
+    def add(self, r: dict) -> None:
+        a = np.asarray(r["chm"], np.float64)
+        if a.size:
+            self._paste(a, r["chm_left"], r["chm_top"])
+        if len(r["tree_id"]):
+            self.crowns.append(np.asarray(list(r["wkb"]), dtype=object))
+            self.x.append(np.asarray(r["x"]))
+            self.y.append(np.asarray(r["y"]))
+
+    def _paste(self, a, left, top) -> None:
+        s, k = self.fine, self.k
+        c0 = int(round((left - s.left) / s.res))
+        r0 = int(round((s.top - top) / s.res))
+        rr, cc = np.mgrid[r0:r0 + a.shape[0], c0:c0 + a.shape[1]]
+        ok = np.isfinite(a)
+        rr, cc, v = rr[ok] // k, cc[ok] // k, a[ok]
+        inside = (rr >= 0) & (rr < self.spec.height) & (cc >= 0) & (cc < self.spec.width)
+        np.fmax.at(self.chm, (rr[inside], cc[inside]), v[inside])
+
+    def write(self, path, title: str, overwrite: bool) -> None:
+        import shapely
+        from rasterio.features import rasterize
+
+        from ..report.quicklook import write_quicklook
+
+        labels = np.zeros(self.spec.shape, np.int32)
+        if self.crowns:
+            geoms = shapely.from_wkb(np.concatenate(self.crowns))
+            labels = rasterize(((g, i + 1) for i, g in enumerate(geoms) if g is not None),
+                               out_shape=self.spec.shape, transform=self.spec.transform,
+                               dtype="int32")
+        x = np.concatenate(self.x) if self.x else np.empty(0)
+        y = np.concatenate(self.y) if self.y else np.empty(0)
+        rows, cols = self.spec.cell_index(x, y)
+        write_quicklook(path, self.chm, labels, rows, cols, spec=self.spec, title=title,
+                        overwrite=overwrite)

@@ -1,0 +1,335 @@
+"""DSM, DTM and CHM of the points in one box, on one aligned grid: what every ALS chain (grid,
+chm, trees) computes per tile.
+
+* :class:`SurfaceOptions` — the ``-tr``, ``-dtm``, ``-chm``, ``-fill`` and outlier options;
+* :func:`compute_surfaces` — the surfaces of a point source (a file, or a tile of a catalog);
+* :func:`box_surfaces` — the surfaces of one box of an area (points or a CHM raster), None when
+  the box holds nothing.
+"""
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from ..grid import GridAccumulator, GridSpec, LowestPoints, check_resolution, data_footprint, \
+    fill_gaps, grid_spec_for
+from ..io.raster import read_raster, resample_to
+from ..progress import SubProgress, as_progress, check_cancel
+from ..tin import LOCAL_RADIUS, interpolate_tin, tin_surface
+from .chm import CHM_KINDS, canopy_outliers, pitfree_chm, pitfree_edge
+
+DTM_CHOICES = "min, ground, lowest:R, kp[:G:W], none, auto or a DTM GeoTIFF path"
+FILLS = ("mean8", "none")
+
+
+@dataclass(frozen=True)
+class DtmMethod:
+    """A parsed ``-dtm`` value."""
+
+    kind: str  # min | ground | lowest | none | auto | kp | file
+    size: float | None = None
+    path: str | None = None
+    g: float | None = None
+    w: float | None = None
+
+    @classmethod
+    def parse(cls, value) -> "DtmMethod":
+        v = "min" if value is None else str(value).strip()
+        low = v.lower()
+        if low in ("min", "ground", "none", "auto"):
+            return cls(low)
+        m = re.fullmatch(r"kp(?::(-?[0-9.]+):([0-9.]+))?", low)
+        if m:
+            return cls("kp", g=float(m.group(1)) if m.group(1) else None,
+                       w=float(m.group(2)) if m.group(2) else None)
+        m = re.fullmatch(r"lowest(?::([0-9.]+))?", low)
+        if m:
+            size = float(m.group(1) or 5.0)
+            if size <= 0:
+                raise InputError(f"-dtm: lowest:R needs R > 0, got {value!r}")
+            return cls("lowest", size=size)
+        if low.endswith((".tif", ".tiff", ".vrt", ".img")) or Path(v).exists():
+            if not Path(v).exists():
+                raise InputError(f"-dtm: DTM file {v} does not exist")
+            return cls("file", path=v)
+        raise InputError(f"-dtm: unknown value {value!r}; use {DTM_CHOICES}")
+
+    def describe(self) -> str:
+        if self.kind == "kp" and self.g is not None:
+            return f"kp:{self.g:g}:{self.w:g}"
+        if self.kind == "lowest":
+            return f"lowest:{(self.size or 5.0):g}"
+        if self.kind == "file":
+            return str(self.path)
+        return self.kind
+
+    def label(self, kind: str) -> str:
+        """The ``-dtm`` value as given (``lowest:5``, ``kp:-1:1``, a path); ``auto`` with what
+        it chose (``auto (ground)``, ``auto (lowest:5)``)."""
+        if self.kind == "auto":
+            return f"auto ({'lowest:5' if kind == 'lowest' else kind})"
+        return self.describe()
+
+
+@dataclass(frozen=True)
+class SurfaceOptions:
+    """How the surfaces are built from points (the ``chm`` command's options).
+
+    Attributes
+    ----------
+    res : float or "auto"
+        Cell size (m); ``auto`` from the point density of the area
+        (:func:`lidartrees_gis.als.area.plan_area`).
+    dtm : str
+        ``auto`` (default) ``ground`` when the points hold class-2 points, else ``lowest:5``;
+        ``ground`` lowest class-2 point per cell, linearly interpolated (TIN) over the grid;
+        ``lowest:R`` the lowest point of each R-metre cell, at its own position, interpolated
+        (TIN); ``kp`` or ``kp:G:W`` ground points of the Kraus & Pfeifer filter (seed 003;
+        defaults g = -2, w = 2.5), interpolated (TIN); ``min`` lowest point per cell (seed 000's
+        simple method, only meaningful where every cell holds a ground return); ``none``
+        heights are already normalised (DTM = 0); or a DTM GeoTIFF path, resampled bilinearly.
+    chm : {"pitfree", "max", "tin"}
+        ``pitfree`` Khosravipour et al. (2014) pit-free CHM of the first returns' heights above
+        the DTM; ``max`` highest point per cell minus the DTM (seed 000); ``tin`` one TIN of the
+        first returns (lidR ``dsmtin``).
+    fill : {"mean8", "none"}
+        Gap filling of the DSM, CHM and of the ``min`` DTM (seed 000), within the data.
+    outliers : bool
+        Remove isolated returns far above the canopy (:func:`lidartrees_gis.als.chm.canopy_outliers`).
+    """
+
+    res: object = "auto"
+    dtm: str = "auto"
+    chm: str = "pitfree"
+    fill: str = "mean8"
+    outliers: bool = True
+
+    def __post_init__(self):
+        if self.chm not in CHM_KINDS:
+            raise InputError(f"-chm: unknown CHM {self.chm!r}; use {', '.join(CHM_KINDS)}")
+        if self.fill not in FILLS:
+            raise InputError(f"-fill: expected one of {', '.join(FILLS)}, got {self.fill!r}")
+        DtmMethod.parse(self.dtm)
+        if not self.auto_res:
+            object.__setattr__(self, "res", check_resolution(self.res))
+
+    @property
+    def auto_res(self) -> bool:
+        return self.res is None or (isinstance(self.res, str) and self.res.strip().lower() == "auto")
+
+    @property
+    def dtm_method(self) -> DtmMethod:
+        return DtmMethod.parse(self.dtm)
+
+
+def bilinear(arr, spec: GridSpec, x, y):
+    """Bilinear sample of a grid at map coordinates (edges clamped)."""
+    from scipy import ndimage
+
+    col = (np.asarray(x) - spec.left) / spec.res - 0.5
+    row = (spec.top - np.asarray(y)) / spec.res - 0.5
+    return ndimage.map_coordinates(np.asarray(arr, np.float64), [row, col], order=1, mode="nearest")
+
+
+class _Accumulators:
+    """What one pass over the points keeps: the highest (and lowest) point per cell, the lowest
+    ground point per cell, the lowest point per ``lowest:R`` cell and the first returns."""
+
+    def __init__(self, spec: GridSpec, method: DtmMethod, keep_first: bool):
+        self.acc = GridAccumulator(spec, ("max", "min") if method.kind == "min" else ("max",))
+        # the lowest ground (class 2) return of each cell, at its own position (a TIN through
+        # cell centres would be ambiguous on the regular lattice)
+        self.ground = LowestPoints(spec) if method.kind in ("ground", "auto") else None
+        self.lowest = (LowestPoints(GridSpec.from_bounds(*spec.bounds, method.size or 5.0,
+                                                         crs=spec.crs))
+                       if method.kind in ("lowest", "auto") else None)
+        self.first = [] if keep_first else None
+        self.n = 0
+
+    def add(self, chunk) -> None:
+        self.n += len(chunk)
+        self.acc.add(chunk.x, chunk.y, chunk.z)
+        if self.ground is not None and chunk.classification is not None:
+            g = chunk.classification == 2
+            if g.any():
+                self.ground.add(chunk.x[g], chunk.y[g], chunk.z[g])
+        if self.lowest is not None:
+            self.lowest.add(chunk.x, chunk.y, chunk.z)
+        if self.first is not None:
+            rn = chunk.return_number
+            sel = slice(None) if rn is None else (rn <= 1)
+            self.first.append((chunk.x[sel], chunk.y[sel], chunk.z[sel]))
+
+    def first_returns(self):
+        x, y, z = (np.concatenate([k[i] for k in self.first]) for i in range(3))
+        self.first = None
+        return x, y, z
+
+
+def _terrain(src, method: DtmMethod, acc: _Accumulators, spec: GridSpec, dsm_raw, fill, prog):
+    """The DTM by ``method``: ``(dtm, kind)`` (``kind`` what ``auto`` chose)."""
+    kind = method.kind
+    if kind == "auto":
+        kind = "ground" if int((acc.ground.count > 0).sum()) >= 3 else "lowest"
+    if kind == "min":
+        return fill_gaps(acc.acc.result("min"), fill), kind
+    if kind == "none":
+        return np.zeros(spec.shape), kind
+    if kind == "ground":
+        gx, gy, gz = acc.ground.points(min_share=0.0)
+        if gx.size == 0:
+            raise InputError(f"{src.path}: -dtm ground: the file has no ground (class 2) points; "
+                             "use -dtm auto, lowest:R, kp or a DTM GeoTIFF")
+        return interpolate_tin(gx, gy, gz, spec), kind
+    if kind == "lowest":
+        return interpolate_tin(*acc.lowest.points(), spec), kind
+    if kind == "kp":
+        from ..ground.chain import dtm_from_ground, ground_points
+        from ..ground.filter import KrausPfeifer
+
+        kp = KrausPfeifer() if method.g is None else KrausPfeifer(g=method.g, w=method.w)
+        pts, ground = ground_points(src, kp, SubProgress(prog, 0.82, 0.88))
+        return dtm_from_ground(pts, ground, spec), kind
+    return _dtm_from_file(method.path, spec, dsm_raw), kind
+
+
+def _dtm_from_file(path, spec: GridSpec, dsm_raw):
+    """A DTM GeoTIFF resampled onto ``spec``; refused when it leaves cells with points bare."""
+    arr, dspec, _ = read_raster(path)
+    dtm = resample_to(arr, dspec, spec)
+    has = np.isfinite(dsm_raw)
+    miss = int((has & ~np.isfinite(dtm)).sum())
+    if miss > 0.01 * max(int(has.sum()), 1):
+        b, db = spec.bounds, dspec.bounds
+        raise InputError(
+            f"-dtm {path}: the DTM does not cover the points ({miss:,} of "
+            f"{int(has.sum()):,} cells with points have no terrain height; DTM x "
+            f"{db[0]:.1f}..{db[2]:.1f}, y {db[1]:.1f}..{db[3]:.1f}; points x {b[0]:.1f}.."
+            f"{b[2]:.1f}, y {b[1]:.1f}..{b[3]:.1f}); give a DTM of the whole area or -dtm auto")
+    if miss:  # a few edge cells: the nearest terrain height
+        dtm = fill_gaps(dtm, "mean8")
+    return dtm
+
+
+def _canopy(acc: _Accumulators, opts: SurfaceOptions, spec: GridSpec, dtm, dsm_raw, chm_raw,
+            out_cells, ceiling, footprint, max_edge, returns, prog):
+    """The CHM from the first returns (pit-free or TIN) and the tree-height grid:
+    ``(chm, heights, outlier points, edge limit used)``."""
+    x, y, z = acc.first_returns()
+    zn = z - bilinear(dtm, spec, x, y)
+    out_points = 0
+    if out_cells.any():
+        r, c = spec.cell_index(x, y)
+        r = np.clip(r, 0, spec.height - 1)
+        c = np.clip(c, 0, spec.width - 1)
+        noise = out_cells[r, c] & (zn > ceiling[r, c])
+        out_points = int(noise.sum())
+        x, y, zn = x[~noise], y[~noise], zn[~noise]
+    prog.update(0.9, f"{opts.chm} CHM")
+    check_cancel(prog)
+    if opts.chm == "tin":
+        chm = tin_surface(x, y, zn, spec, max_radius=LOCAL_RADIUS)
+    else:
+        if max_edge is None:
+            max_edge = pitfree_edge(x.size, float(np.isfinite(dsm_raw).sum()) * spec.cell_area)
+        chm = pitfree_chm(x, y, zn, spec, max_edge=(0.0, max_edge),
+                          coarse=np.where(out_cells, np.nan, chm_raw))
+    chm = fill_gaps(chm, opts.fill, mask=footprint)
+    # tree heights: the highest return of a cell is above the TIN at its centre
+    return chm, np.fmax(chm, returns), out_points, max_edge
+
+
+def compute_surfaces(src, res: float, opts: SurfaceOptions | None = None, *, max_edge=None,
+                     progress=None) -> dict:
+    """DSM, DTM and CHM of a point source on one aligned grid.
+
+    Parameters
+    ----------
+    src : PointSource or TileSource
+        Points (its class filter, e.g. noise classes 7 and 18 dropped, applies).
+    res : float
+        Cell size (m).
+    opts : SurfaceOptions
+    max_edge : float, optional
+        The pit-free CHM's edge limit (m); default from these points' density
+        (:func:`lidartrees_gis.als.chm.pitfree_edge`). Tiles take the area's.
+
+    Returns
+    -------
+    dict with ``dsm``, ``dtm``, ``chm`` (float64 arrays, NaN = nodata), ``heights`` (the CHM
+    or, where higher, the highest return above ground in the cell: what tree heights are read
+    from), ``returns`` (the highest return above ground per cell), ``spec``, ``res``,
+    ``dtm_method``, ``chm_method``, ``points``, ``dropped`` (points per dropped class),
+    ``outlier_cells``, ``outlier_points``, ``max_edge`` (the edge limit used) and ``density``
+    (points per m² over the data footprint).
+    """
+    opts = opts or SurfaceOptions()
+    prog = as_progress(progress)
+    method = opts.dtm_method
+    spec = grid_spec_for(src, res, SubProgress(prog, 0.0, 0.3))
+    acc = _Accumulators(spec, method, keep_first=opts.chm != "max")
+    for chunk in src.chunks(SubProgress(prog, 0.3, 0.8)):
+        acc.add(chunk)
+    if acc.n == 0:
+        raise InputError(f"{src.path}: no points" + (
+            f" left after dropping classes {sorted(src.dropped)}" if src.dropped else ""))
+    check_cancel(prog)
+    dsm_raw = acc.acc.result("max")
+    # the data footprint: cells within 2 m (or 3 point spacings) of a cell with points
+    occupied = np.isfinite(dsm_raw)
+    footprint = data_footprint(occupied, spec.res,
+                               max(2.0, 3.0 * math.sqrt(spec.cell_area * occupied.sum() / acc.n)))
+    prog.update(0.82, "terrain")
+    dtm, kind = _terrain(src, method, acc, spec, dsm_raw, opts.fill, prog)
+    check_cancel(prog)
+    chm_raw = dsm_raw - dtm
+    out_cells, ceiling = np.zeros(spec.shape, bool), None
+    if opts.outliers:
+        out_cells, ceiling = canopy_outliers(chm_raw, res, origin=(spec.left, spec.top))
+    out_points = int(out_cells.sum())
+    if out_points:
+        dsm_raw = np.where(out_cells, np.nan, dsm_raw)
+    # the highest return above ground of each cell (NaN: none); plantation mode looks at it
+    returns = dsm_raw - dtm
+    prog.update(0.88, "filling gaps")
+    dsm = fill_gaps(dsm_raw, opts.fill, progress=SubProgress(prog, 0.88, 0.9), mask=footprint)
+    if opts.chm == "max":
+        chm = heights = dsm - dtm
+    else:
+        chm, heights, noise, max_edge = _canopy(acc, opts, spec, dtm, dsm_raw, chm_raw, out_cells,
+                                                ceiling, footprint, max_edge, returns, prog)
+        out_points = noise if out_cells.any() else out_points
+    prog.update(0.95, "canopy height")
+    return {"dsm": dsm, "dtm": dtm, "chm": chm, "heights": heights, "returns": returns,
+            "spec": spec, "res": res, "dtm_method": method.label(kind), "chm_method": opts.chm,
+            "points": acc.n, "outside": acc.acc.outside, "dropped": dict(src.dropped),
+            "density": acc.n / max(float(footprint.sum()) * spec.cell_area, 1e-9),
+            "outlier_cells": int(out_cells.sum()), "outlier_points": out_points,
+            "max_edge": max_edge}
+
+
+def box_surfaces(area, box, res: float, opts: SurfaceOptions, *, max_edge=None,
+                 progress=None) -> dict | None:
+    """The surfaces of the part of ``area`` inside ``box``: a
+    :class:`~lidartrees_gis.catalog.catalog.Catalog` (points, :func:`compute_surfaces`) or a
+    :class:`~lidartrees_gis.catalog.raster.RasterArea` (a CHM GeoTIFF, its window). None when
+    the box holds no point (a gap between files, a corner of the area)."""
+    from ..catalog.raster import RasterArea
+    from ..catalog.source import TileSource
+
+    if isinstance(area, RasterArea):
+        return area.surfaces(box)
+    src = TileSource(area, box)
+    if not src.files:
+        return None
+    try:
+        return compute_surfaces(src, res, opts, max_edge=max_edge, progress=progress)
+    except InputError as exc:
+        if "no points" in str(exc):
+            return None
+        raise
