@@ -26,21 +26,22 @@ def _jit(fn):
     return None
 
 
-def _accumulate_py(x, y, z, left, bottom, res, height, width, eps, count, mx, mn, sm):
+def _accumulate_py(x, y, z, col0, row0, res, height, width, eps, count, mx, mn, sm):
     """One pass: cell index of every point, then count / max / min / sum per cell.
 
-    Arrays ``count``, ``mx``, ``mn``, ``sm`` of length 0 are skipped. Returns the number of points that fall
-    outside the grid.
+    A point's cell is ``floor(x / res + eps) - col0`` (and the same for rows from ``row0``, the
+    grid's lower-left cell in the global grid), as :meth:`GridSpec.cell_index`. Arrays
+    ``count``, ``mx``, ``mn``, ``sm`` of length 0 are skipped. Returns the number of points that
+    fall outside the grid.
     """
     outside = 0
     do_max = mx.shape[0] > 0
     do_min = mn.shape[0] > 0
     do_sum = sm.shape[0] > 0
     do_count = count.shape[0] > 0
-    inv = 1.0 / res
     for i in range(x.shape[0]):
-        fc = (x[i] - left) * inv + eps
-        fr = (y[i] - bottom) * inv + eps
+        fc = np.floor(x[i] / res + eps) - col0
+        fr = np.floor(y[i] / res + eps) - row0
         # compared as floats before any int conversion: NaN, inf and 1e300 never become an index
         if not (fc >= 0.0 and fr >= 0.0 and fc < width and fr < height):
             outside += 1
@@ -66,13 +67,13 @@ def _accumulate_py(x, y, z, left, bottom, res, height, width, eps, count, mx, mn
 _accumulate_nb = _jit(_accumulate_py)
 
 
-def accumulate(x, y, z, left, bottom, res, height, width, eps, count, mx, mn, sm) -> int:
+def accumulate(x, y, z, col0, row0, res, height, width, eps, count, mx, mn, sm) -> int:
     """Fused gridding kernel (numba only; callers use the numpy path when it is missing)."""
     n = height * width
     if not (x.shape[0] == y.shape[0] == z.shape[0]) or any(
             a.shape[0] not in (0, n) for a in (count, mx, mn, sm)) or not res > 0:
         raise ValueError("accumulate: arrays do not match the grid")
-    return _accumulate_nb(x, y, z, left, bottom, res, height, width, eps, count, mx, mn, sm)
+    return _accumulate_nb(x, y, z, col0, row0, res, height, width, eps, count, mx, mn, sm)
 
 
 def _lowest_py(idx, x, y, z, cz, cx, cy, count):

@@ -19,8 +19,10 @@ from . import _accel
 from .errors import InputError
 from .progress import as_progress, check_cancel
 
-#: tolerance (in cells) for deciding that a coordinate sits on a cell edge
-EDGE_EPS = 1e-9
+#: tolerance (in cells) for deciding that a coordinate sits on a cell edge: above the rounding
+#: of x / res at map coordinates (northings of 10^7 m over 0.25 m cells: 4e-8), far below
+#: the coordinates' own precision
+EDGE_EPS = 1e-6
 STATS = ("max", "min", "mean", "count")
 
 
@@ -82,12 +84,30 @@ class GridSpec:
     def cell_area(self) -> float:
         return self.res * self.res
 
+    def origin_cells(self) -> tuple:
+        """``(column, row)`` of the grid's lower-left cell in the global grid of cells of
+        ``res`` (cell ``(i, j)`` holds ``i res <= x < (i + 1) res``), or None for a grid whose
+        corner is not on a multiple of ``res`` (a raster from elsewhere)."""
+        c = self.left / self.res
+        r = (self.top - self.height * self.res) / self.res
+        if abs(c - round(c)) < 1e-6 and abs(r - round(r)) < 1e-6:
+            return float(round(c)), float(round(r))
+        return None
+
     def cell_index(self, x, y):
-        """Row and column of each point (may fall outside ``[0, height) x [0, width)``)."""
-        inv = 1.0 / self.res  # the same arithmetic as the compiled kernel
-        col = np.floor((np.asarray(x) - self.left) * inv + EDGE_EPS).astype(np.int64)
-        row = (self.height - 1) - np.floor(
-            (np.asarray(y) - (self.top - self.height * self.res)) * inv + EDGE_EPS).astype(np.int64)
+        """Row and column of each point (may fall outside ``[0, height) x [0, width)``).
+
+        A point's cell is that of the global grid (``floor(x / res)``), so a point gets the
+        same cell in every grid that holds it: the grid of a tile and of the whole area agree
+        even for points on cell edges (the same arithmetic as the compiled kernel)."""
+        o = self.origin_cells()
+        x, y = np.asarray(x), np.asarray(y)
+        if o is None:  # a grid off the global lattice: from its own corner
+            o = (0.0, 0.0)
+            x = x - self.left
+            y = y - (self.top - self.height * self.res)
+        col = (np.floor(x / self.res + EDGE_EPS) - o[0]).astype(np.int64)
+        row = (self.height - 1) - (np.floor(y / self.res + EDGE_EPS) - o[1]).astype(np.int64)
         return row, col
 
     def xy(self, row, col):
@@ -175,8 +195,11 @@ class GridAccumulator:
         if _accel.HAVE_NUMBA:
             empty = np.empty(0)
             s = self.spec
+            o = s.origin_cells()
+            if o is None:  # a grid off the global lattice: from its own corner
+                x, y, o = x - s.left, y - (s.top - s.height * s.res), (0.0, 0.0)
             self.outside += _accel.accumulate(
-                x, y, z, s.left, s.top - s.height * s.res, s.res, s.height, s.width, EDGE_EPS,
+                x, y, z, o[0], o[1], s.res, s.height, s.width, EDGE_EPS,
                 self.count, empty if self._max is None else self._max,
                 empty if self._min is None else self._min, empty if self._sum is None else self._sum)
             return
@@ -339,13 +362,19 @@ class LowestPoints:
         k, sel = k[better], sel[better]
         self.z[k], self.x[k], self.y[k] = z[sel], x[sel], y[sel]
 
-    def points(self, min_share: float = 0.25):
-        """``(x, y, z)`` of the lowest point of each cell holding at least ``min_share`` of the
-        median number of points per non-empty cell (cells cut by the data's edge hold a few
-        points that are often not ground)."""
+    def median(self) -> float | None:
+        """The median number of points per non-empty cell (None: no point)."""
+        m = self.count > 0
+        return float(np.median(self.count[m])) if m.any() else None
+
+    def points(self, min_share: float = 0.25, reference: float | None = None):
+        """``(x, y, z)`` of the lowest point of each cell holding at least ``min_share`` of
+        ``reference`` points (default: the median number per non-empty cell): cells cut by the
+        data's edge hold a few points that are often not ground."""
         m = self.count > 0
         if m.any():
-            m &= self.count >= min_share * np.median(self.count[m])
+            ref = self.median() if reference is None else reference
+            m &= self.count >= min_share * ref
         return self.x[m], self.y[m], self.z[m]
 
 

@@ -283,3 +283,50 @@ def test_compiled_lowest_points_equal_numpy(monkeypatch):
         assert np.array_equal(a, b)
     full = got[0][3] > 100  # the 100 cells inside the points' square
     assert full.sum() == 100 and (got[0][0][full] == 0).all()
+
+
+def test_crown_scale_of_a_grid_smaller_than_its_lag_window():
+    """A CHM a few cells wide (a TLS tree, a slice) has fewer lags than the 15 m the crown
+    scale looks at: it is measured over the lags the grid holds (this raised a ValueError)."""
+    rng = np.random.default_rng(0)
+    for shape in ((6, 6), (8, 60), (60, 8), (4, 200)):
+        a = 10.0 + rng.random(shape) * 5.0
+        v = crown_scale(a, 0.25)
+        assert np.isnan(v) or 0.25 <= v <= 10.0
+
+
+def test_a_sub_box_has_the_chm_of_the_whole_away_from_its_edges(tmp_path):
+    """Ground on a slope, points on a 1 cm lattice (as LAS files store them): the pit-free CHM
+    of a box with 20 m around a core equals the whole area's in the core. The heights above the
+    DTM of the ground points it was made from are 0 in any grid (their sign, left to the
+    rounding of the interpolation, once decided whether the first layer took them)."""
+    from pyproj import CRS
+
+    from lidartrees_gis.als.surfaces import SurfaceOptions, compute_surfaces
+    from lidartrees_gis.catalog.catalog import Catalog
+    from lidartrees_gis.catalog.source import TileSource
+    from lidartrees_gis.io.lasout import write_points
+
+    rng = np.random.default_rng(5)
+    n = 60_000
+    x, y = 885_000 + rng.random(n) * 90, 629_100 + rng.random(n) * 90
+    ground = rng.random(n) < 0.3
+    z = 300 + 0.1 * (x - 885_000) + np.where(ground, 0.0, 2 + 18 * rng.random(n))
+    x, y, z = np.round(x, 2), np.round(y, 2), np.round(z, 2)
+    f = tmp_path / "g.laz"
+    write_points(f, x, y, z, crs=CRS.from_epsg(3005), classification=np.where(ground, 2, 1))
+    cat = Catalog.open(f)
+    core = (885_030.0, 629_130.0, 885_060.0, 629_160.0)
+    box = (core[0] - 20, core[1] - 20, core[2] + 20, core[3] + 20)
+    whole = compute_surfaces(TileSource(cat, cat.extent), 0.3, SurfaceOptions())
+    part = compute_surfaces(TileSource(cat, box), 0.3, SurfaceOptions(),
+                            stats=whole["stats"])
+    ws, ps = whole["spec"], part["spec"]
+    r0, c0 = int(round((ws.top - ps.top) / 0.3)), int(round((ps.left - ws.left) / 0.3))
+    a = whole["chm"][r0:r0 + ps.height, c0:c0 + ps.width]
+    b = part["chm"]
+    rows, cols = np.mgrid[0:ps.height, 0:ps.width]
+    cx, cy = ps.xy(rows, cols)
+    inner = (cx > core[0]) & (cx < core[2]) & (cy > core[1]) & (cy < core[3])
+    assert inner.sum() > 9000 and np.array_equal(np.isnan(a[inner]), np.isnan(b[inner]))
+    assert np.nanmax(np.abs(a[inner] - b[inner])) <= 1e-4

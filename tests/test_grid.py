@@ -112,3 +112,29 @@ def test_fused_kernel_equals_numpy_path(monkeypatch):
     for st in ("max", "min"):
         np.testing.assert_array_equal(a.result(st), b.result(st))
     np.testing.assert_allclose(a.result("mean"), b.result("mean"))
+
+
+def test_a_point_on_a_cell_edge_gets_the_same_cell_in_every_grid():
+    """A tile's grid and the whole area's put a point on a cell edge in the same global cell
+    (the grid's bottom edge computed from its top once put points of NEON's 1 cm lattice on
+    0.4 m edges into the cell below in some grids and not others)."""
+    res = 0.4
+    y = np.array([4097136.8, 4097134.8, 4097126.8, 4097490.4])  # on 0.4 m edges
+    x = np.array([321150.45, 321159.3, 321135.88, 321346.99])
+    whole = GridSpec.from_bounds(321132.8, 4097097.2, 321400.0, 4097500.0, res)
+    tile = GridSpec.from_bounds(321134.0, 4097120.0, 321360.0, 4097495.2, res)
+    rw, cw = whole.cell_index(x, y)
+    rt, ct = tile.cell_index(x, y)
+    gx_w, gy_w = whole.xy(rw, cw)
+    gx_t, gy_t = tile.xy(rt, ct)
+    np.testing.assert_allclose(gx_w, gx_t, atol=1e-6)
+    np.testing.assert_allclose(gy_w, gy_t, atol=1e-6)
+    # the cell whose bottom edge the point lies on (half-open cells: [bottom, top))
+    np.testing.assert_allclose(gy_w - res / 2, y, atol=1e-6)
+    acc_w, acc_t = GridAccumulator(whole, ("count",)), GridAccumulator(tile, ("count",))
+    acc_w.add(x, y, np.ones(4))
+    acc_t.add(x, y, np.ones(4))
+    assert acc_w.outside == acc_t.outside == 0
+    assert np.array_equal(np.argwhere(acc_w.count.reshape(whole.shape) > 0) - [
+        int(round((whole.top - tile.top) / res)), int(round((tile.left - whole.left) / res))],
+        np.argwhere(acc_t.count.reshape(tile.shape) > 0))

@@ -35,7 +35,7 @@ from ..catalog.source import TileSource
 from ..errors import InputError
 from ..grid import auto_resolution, check_sparse
 from .chm import chm_resolution, crown_scale
-from .surfaces import SurfaceOptions, box_surfaces
+from .surfaces import SurfaceOptions, SurfaceStats, box_surfaces
 
 #: side (m) of the windows the area is measured on
 MEASURE_WINDOW = 150.0
@@ -119,7 +119,7 @@ def window_measures(s, min_height: float, want_scale: bool) -> dict | None:
         return None
     chm = s["chm"]
     canopy = chm[np.isfinite(chm) & (chm >= min_height)]
-    return {"max_edge": s.get("max_edge"),
+    return {"stats": s.get("stats"),
             "p95": float(np.percentile(canopy, 95)) if canopy.size else float("nan"),
             "crown_scale": (crown_scale(chm, s["spec"].res, min_height=min_height)
                             if want_scale else float("nan"))}
@@ -136,7 +136,7 @@ class AreaPlan:
 
     res: float
     density: float  # points per m² (median of the windows); NaN for a raster
-    max_edge: float | None  # the pit-free CHM's edge limit (m)
+    stats: SurfaceStats  # what the tiles' surfaces take from the whole area
     crown_scale: float | None  # m
     crown_scale_source: str  # measured | given | spacing | default (no canopy to measure)
     dominant_height: float | None  # m
@@ -239,13 +239,23 @@ def plan_area(area, surface: SurfaceOptions, tiling: TilingOptions, *, runner, p
             measures = list(run(window_canopy, windows, (area, res, surface, min_height,
                                                          want_scale)))
     measures = [m for m in measures if m is not None]
-    max_edge = _median([m["max_edge"] for m in measures if m["max_edge"] is not None], None)
+    stats = _area_stats([m["stats"] for m in measures if m["stats"] is not None])
     cs, source, hd = _crown_scale_and_height(params, measures, res)
     buf = tiling.buffer if tiling.buffer is not None else (
         buffer if buffer is not None else max(MIN_BUFFER, BUFFER_CROWNS * (cs or 0.0)))
     tiles = tuple(make_tiles(area.extent, ts, buf))
-    plan = AreaPlan(res, density, max_edge, cs, source, hd, len(windows), tiles, buf, ts)
+    plan = AreaPlan(res, density, stats, cs, source, hd, len(windows), tiles, buf, ts)
     return plan, kept
+
+
+def _area_stats(stats: list) -> SurfaceStats:
+    """The area's :class:`SurfaceStats` from its windows': the medians, and ``ground`` for
+    ``-dtm auto`` when any window holds ground points."""
+    kinds = {s.dtm_kind for s in stats if s.dtm_kind}
+    return SurfaceStats(max_edge=_median([s.max_edge for s in stats], None),
+                        footprint=_median([s.footprint for s in stats], None),
+                        lowest_median=_median([s.lowest_median for s in stats], None),
+                        dtm_kind=("ground" if "ground" in kinds else "lowest") if kinds else None)
 
 
 def _median(values, default):

@@ -230,7 +230,7 @@ def area_surfaces(input, *, surface: SurfaceOptions | None = None,
                                 runner=runner, params=params, keep=True,
                                 progress=SubProgress(prog, 0.02, 1.0))
         s = ready if ready is not None else box_surfaces(
-            area, plan.tiles[0].box, plan.res, surface, max_edge=plan.max_edge,
+            area, plan.tiles[0].box, plan.res, surface, stats=plan.stats,
             progress=SubProgress(prog, 0.1, 1.0))
     if s is None:
         raise InputError(f"{area.label()}: no points")

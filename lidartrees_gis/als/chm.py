@@ -277,7 +277,9 @@ def _half_correlation_distance(a: np.ndarray, res: float, level: float = 0.5,
     if not ac.max() > 0:
         return float("nan")
     ac /= ac.max()
-    kmax = min(H, W, int(max_dist / res) + 2)
+    kmax = min(H - 1, W - 1, int(max_dist / res) + 2)  # the lags the padded grid holds
+    if kmax < 1:
+        return float("nan")
     sub = ac[H - kmax:H + kmax + 1, W - kmax:W + kmax + 1]
     yy, xx = np.mgrid[-kmax:kmax + 1, -kmax:kmax + 1]
     r = np.hypot(yy, xx)

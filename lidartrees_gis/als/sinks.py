@@ -221,10 +221,12 @@ class GpkgTreeLayers(TreeLayers):
         import pyogrio.raw
 
         new = self._new(layer)
-        pyogrio.raw.write(self.path, wkb, list(fields.values()), list(fields), layer=layer,
-                          driver="GPKG", geometry_type=geometry_type, crs=self.wkt,
-                          append=not new, layer_options=self.lco if new else None,
-                          layer_metadata=self.meta if new else None)
+        with warnings.catch_warnings():  # points without a CRS (a TLS tree in local coordinates)
+            warnings.filterwarnings("ignore", message="'crs' was not provided")
+            pyogrio.raw.write(self.path, wkb, list(fields.values()), list(fields), layer=layer,
+                              driver="GPKG", geometry_type=geometry_type, crs=self.wkt,
+                              append=not new, layer_options=self.lco if new else None,
+                              layer_metadata=self.meta if new else None)
 
     def add(self, r: dict, flush: bool = False) -> None:
         if len(r["tree_id"]):

@@ -23,6 +23,10 @@ from ..progress import SubProgress, as_progress, check_cancel
 from ..tin import LOCAL_RADIUS, interpolate_tin, tin_surface
 from .chm import CHM_KINDS, canopy_outliers, pitfree_chm, pitfree_edge
 
+#: heights above the DTM closer to 0 than this (m) are 0: the ground points the DTM was
+#: interpolated from lie on it, and the rounding of the interpolation must not decide whether
+#: they are above it (the pit-free CHM's first layer takes the points at or above 0)
+ON_GROUND = 1e-6
 DTM_CHOICES = "min, ground, lowest:R, kp[:G:W], none, auto or a DTM GeoTIFF path"
 FILLS = ("mean8", "none")
 
@@ -127,12 +131,48 @@ class SurfaceOptions:
         return DtmMethod.parse(self.dtm)
 
 
+@dataclass(frozen=True)
+class SurfaceStats:
+    """What the surfaces of a tile take from its whole area rather than from the tile's own
+    points, so that a tile's surfaces are those of the whole area (measured once by
+    :func:`lidartrees_gis.als.area.plan_area`; None: from the points at hand).
+
+    Attributes
+    ----------
+    max_edge : float
+        The pit-free CHM's edge limit (m, :func:`lidartrees_gis.als.chm.pitfree_edge`).
+    footprint : float
+        The data footprint's reach (m): cells within it of a cell holding points are filled.
+    lowest_median : float
+        ``-dtm lowest:R``: the median number of points per non-empty R-metre cell (cells with
+        less than a quarter of it, cut by the data's edge, are left out of the DTM).
+    dtm_kind : {"ground", "lowest"}
+        What ``-dtm auto`` chose: ``ground`` when the points hold class-2 points.
+    """
+
+    max_edge: float | None = None
+    footprint: float | None = None
+    lowest_median: float | None = None
+    dtm_kind: str | None = None
+
+
 def bilinear(arr, spec: GridSpec, x, y):
-    """Bilinear sample of a grid at map coordinates (edges clamped)."""
+    """Bilinear sample of a grid at map coordinates (edges clamped).
+
+    A point's position in the grid is taken from the global grid (``x / res`` less the grid's
+    own first column, an integer), so a tile's grid and the whole area's give the same weights
+    to the last bit: the heights above ground of ground points, which lie on the DTM, keep
+    their sign (the pit-free CHM's first layer takes the points at or above 0)."""
     from scipy import ndimage
 
-    col = (np.asarray(x) - spec.left) / spec.res - 0.5
-    row = (spec.top - np.asarray(y)) / spec.res - 0.5
+    x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
+    o = spec.origin_cells()
+    if o is None:
+        col = (x - spec.left) / spec.res - 0.5
+        row = (spec.top - y) / spec.res - 0.5
+    else:
+        col = (x / spec.res - o[0]) - 0.5
+        row = ((o[1] + spec.height) - y / spec.res) - 0.5
     return ndimage.map_coordinates(np.asarray(arr, np.float64), [row, col], order=1, mode="nearest")
 
 
@@ -171,11 +211,16 @@ class _Accumulators:
         return x, y, z
 
 
-def _terrain(src, method: DtmMethod, acc: _Accumulators, spec: GridSpec, dsm_raw, fill, prog):
-    """The DTM by ``method``: ``(dtm, kind)`` (``kind`` what ``auto`` chose)."""
+def _terrain(src, method: DtmMethod, acc: _Accumulators, spec: GridSpec, dsm_raw, fill, prog,
+             stats: SurfaceStats):
+    """The DTM by ``method``: ``(dtm, kind)`` (``kind`` what ``auto`` chose: the area's choice
+    when ``stats`` says, unless this box holds too few ground points)."""
     kind = method.kind
     if kind == "auto":
-        kind = "ground" if int((acc.ground.count > 0).sum()) >= 3 else "lowest"
+        has_ground = int((acc.ground.count > 0).sum()) >= 3
+        kind = stats.dtm_kind or ("ground" if has_ground else "lowest")
+        if kind == "ground" and not has_ground:
+            kind = "lowest"
     if kind == "min":
         return fill_gaps(acc.acc.result("min"), fill), kind
     if kind == "none":
@@ -187,7 +232,7 @@ def _terrain(src, method: DtmMethod, acc: _Accumulators, spec: GridSpec, dsm_raw
                              "use -dtm auto, lowest:R, kp or a DTM GeoTIFF")
         return interpolate_tin(gx, gy, gz, spec), kind
     if kind == "lowest":
-        return interpolate_tin(*acc.lowest.points(), spec), kind
+        return interpolate_tin(*acc.lowest.points(reference=stats.lowest_median), spec), kind
     if kind == "kp":
         from ..ground.chain import dtm_from_ground, ground_points
         from ..ground.filter import KrausPfeifer
@@ -222,6 +267,7 @@ def _canopy(acc: _Accumulators, opts: SurfaceOptions, spec: GridSpec, dtm, dsm_r
     ``(chm, heights, outlier points, edge limit used)``."""
     x, y, z = acc.first_returns()
     zn = z - bilinear(dtm, spec, x, y)
+    zn[np.abs(zn) < ON_GROUND] = 0.0  # on the DTM (the ground points it was made from)
     out_points = 0
     if out_cells.any():
         r, c = spec.cell_index(x, y)
@@ -244,8 +290,8 @@ def _canopy(acc: _Accumulators, opts: SurfaceOptions, spec: GridSpec, dtm, dsm_r
     return chm, np.fmax(chm, returns), out_points, max_edge
 
 
-def compute_surfaces(src, res: float, opts: SurfaceOptions | None = None, *, max_edge=None,
-                     progress=None) -> dict:
+def compute_surfaces(src, res: float, opts: SurfaceOptions | None = None, *,
+                     stats: SurfaceStats | None = None, progress=None) -> dict:
     """DSM, DTM and CHM of a point source on one aligned grid.
 
     Parameters
@@ -255,9 +301,9 @@ def compute_surfaces(src, res: float, opts: SurfaceOptions | None = None, *, max
     res : float
         Cell size (m).
     opts : SurfaceOptions
-    max_edge : float, optional
-        The pit-free CHM's edge limit (m); default from these points' density
-        (:func:`lidartrees_gis.als.chm.pitfree_edge`). Tiles take the area's.
+    stats : SurfaceStats, optional
+        What to take from the whole area (tiles take the area's); by default each is measured
+        on these points.
 
     Returns
     -------
@@ -265,10 +311,11 @@ def compute_surfaces(src, res: float, opts: SurfaceOptions | None = None, *, max
     or, where higher, the highest return above ground in the cell: what tree heights are read
     from), ``returns`` (the highest return above ground per cell), ``spec``, ``res``,
     ``dtm_method``, ``chm_method``, ``points``, ``dropped`` (points per dropped class),
-    ``outlier_cells``, ``outlier_points``, ``max_edge`` (the edge limit used) and ``density``
-    (points per m² over the data footprint).
+    ``outlier_cells``, ``outlier_points``, ``stats`` (the :class:`SurfaceStats` used) and
+    ``density`` (points per m² over the data footprint).
     """
     opts = opts or SurfaceOptions()
+    stats = stats or SurfaceStats()
     prog = as_progress(progress)
     method = opts.dtm_method
     spec = grid_spec_for(src, res, SubProgress(prog, 0.0, 0.3))
@@ -282,10 +329,12 @@ def compute_surfaces(src, res: float, opts: SurfaceOptions | None = None, *, max
     dsm_raw = acc.acc.result("max")
     # the data footprint: cells within 2 m (or 3 point spacings) of a cell with points
     occupied = np.isfinite(dsm_raw)
-    footprint = data_footprint(occupied, spec.res,
-                               max(2.0, 3.0 * math.sqrt(spec.cell_area * occupied.sum() / acc.n)))
+    reach = stats.footprint
+    if reach is None:
+        reach = max(2.0, 3.0 * math.sqrt(spec.cell_area * occupied.sum() / acc.n))
+    footprint = data_footprint(occupied, spec.res, reach)
     prog.update(0.82, "terrain")
-    dtm, kind = _terrain(src, method, acc, spec, dsm_raw, opts.fill, prog)
+    dtm, kind = _terrain(src, method, acc, spec, dsm_raw, opts.fill, prog, stats)
     check_cancel(prog)
     chm_raw = dsm_raw - dtm
     out_cells, ceiling = np.zeros(spec.shape, bool), None
@@ -298,22 +347,24 @@ def compute_surfaces(src, res: float, opts: SurfaceOptions | None = None, *, max
     returns = dsm_raw - dtm
     prog.update(0.88, "filling gaps")
     dsm = fill_gaps(dsm_raw, opts.fill, progress=SubProgress(prog, 0.88, 0.9), mask=footprint)
+    max_edge = stats.max_edge
     if opts.chm == "max":
         chm = heights = dsm - dtm
     else:
         chm, heights, noise, max_edge = _canopy(acc, opts, spec, dtm, dsm_raw, chm_raw, out_cells,
                                                 ceiling, footprint, max_edge, returns, prog)
         out_points = noise if out_cells.any() else out_points
+    used = SurfaceStats(max_edge, reach, acc.lowest.median() if acc.lowest is not None else None,
+                        kind if method.kind == "auto" else None)
     prog.update(0.95, "canopy height")
     return {"dsm": dsm, "dtm": dtm, "chm": chm, "heights": heights, "returns": returns,
             "spec": spec, "res": res, "dtm_method": method.label(kind), "chm_method": opts.chm,
             "points": acc.n, "outside": acc.acc.outside, "dropped": dict(src.dropped),
             "density": acc.n / max(float(footprint.sum()) * spec.cell_area, 1e-9),
-            "outlier_cells": int(out_cells.sum()), "outlier_points": out_points,
-            "max_edge": max_edge}
+            "outlier_cells": int(out_cells.sum()), "outlier_points": out_points, "stats": used}
 
 
-def box_surfaces(area, box, res: float, opts: SurfaceOptions, *, max_edge=None,
+def box_surfaces(area, box, res: float, opts: SurfaceOptions, *, stats=None,
                  progress=None) -> dict | None:
     """The surfaces of the part of ``area`` inside ``box``: a
     :class:`~lidartrees_gis.catalog.catalog.Catalog` (points, :func:`compute_surfaces`) or a
@@ -328,7 +379,7 @@ def box_surfaces(area, box, res: float, opts: SurfaceOptions, *, max_edge=None,
     if not src.files:
         return None
     try:
-        return compute_surfaces(src, res, opts, max_edge=max_edge, progress=progress)
+        return compute_surfaces(src, res, opts, stats=stats, progress=progress)
     except InputError as exc:
         if "no points" in str(exc):
             return None

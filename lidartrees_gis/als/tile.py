@@ -122,7 +122,7 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
 
     prog = as_progress(progress)
     s = surfaces if surfaces is not None else box_surfaces(area, tile.box, plan.res, surface,
-                                                           max_edge=plan.max_edge, progress=prog)
+                                                           stats=plan.stats, progress=prog)
     if s is None:
         return _empty_trees(tile, plan.res)
     spec = s["spec"]
@@ -173,7 +173,7 @@ def tile_surfaces(tile: Tile, area, plan: AreaPlan, surface: SurfaceOptions, nam
                   surfaces=None, progress=None) -> dict:
     """The core window of the tile's surfaces named in ``names`` (``chm``, ``dtm``, ``dsm``)."""
     s = surfaces if surfaces is not None else box_surfaces(area, tile.box, plan.res, surface,
-                                                           max_edge=plan.max_edge,
+                                                           stats=plan.stats,
                                                            progress=progress)
     if s is None:
         e = np.empty((0, 0), np.float32)

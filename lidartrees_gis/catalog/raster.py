@@ -78,5 +78,5 @@ class RasterArea:
             return None
         return {"chm": arr, "heights": arr, "returns": None, "spec": w, "res": w.res,
                 "points": 0, "dropped": {}, "outlier_points": 0, "outlier_cells": 0,
-                "max_edge": None, "dtm_method": None, "chm_method": "input raster",
+                "stats": None, "dtm_method": None, "chm_method": "input raster",
                 "density": float("nan")}
