@@ -4,7 +4,7 @@ crowns and stand summaries (GeoTIFF, GeoPackage) for QGIS, the command line and 
 The Python API (:mod:`lidartrees_gis.api`) is loaded on first use, so that ``import
 lidartrees_gis`` and the command table stay light (no numpy, GDAL or GEOS)."""
 
-__version__ = "0.1.0"
+from ._version import __version__  # noqa: E402
 
 from .errors import (  # noqa: E402
     Cancelled, CRSError, InputError, LidarTreesError, OutputExistsError, ReadError,

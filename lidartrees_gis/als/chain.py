@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
+from .._version import __version__
 from ..catalog.catalog import Catalog, TilingOptions
 from ..catalog.inputs import is_catalog_input
 from ..catalog.mosaic import MosaicWriter

@@ -36,7 +36,7 @@ class MosaicWriter:
 
     def set_tags(self, tags: dict) -> None:
         """Provenance tags (values JSON-encoded when not strings), with the tool's version."""
-        from .. import __version__
+        from .._version import __version__
 
         t = {"LIDARTREES_VERSION": __version__}
         t.update({str(k).upper(): v if isinstance(v, str) else json.dumps(v, default=str)

@@ -10,7 +10,7 @@ import json
 import math
 import sys
 
-from .. import __version__
+from .._version import __version__
 from .commands import COMMANDS
 from ..errors import Cancelled, LidarTreesError
 from ..progress import LineProgress, NullProgress, TqdmProgress

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import __version__
+from .._version import __version__
 from ..crs import crs_label
 from ..errors import InputError
 from ..grid import GridAccumulator, GridSpec, fill_gaps, resolve_resolution

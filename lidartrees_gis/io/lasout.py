@@ -72,7 +72,7 @@ def write_classified(path, src, classification, *, overwrite=False, extra=None,
         arr = np.asarray(arr)
         las.add_extra_dim(laspy.ExtraBytesParams(name=name, type=arr.dtype))
         setattr(las, name, arr)
-    from .. import __version__
+    from .._version import __version__
 
     if metadata:
         las.header.vlrs = [v for v in las.header.vlrs

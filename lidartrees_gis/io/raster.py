@@ -5,7 +5,7 @@ import json
 
 import numpy as np
 
-from .. import __version__
+from .._version import __version__
 from ..errors import InputError, ReadError
 from ..grid import GridSpec
 from .output import atomic_output

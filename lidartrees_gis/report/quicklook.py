@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
+from .._version import __version__
 from ..crs import crs_label
 from .classes import height_classes, round_length
 

@@ -1,0 +1,309 @@
+"""XYZ text: the dialect (delimiter, decimal comma, header, columns) detected from the first
+lines, and the points read block by block, with the file, line and text of a bad line."""
+from __future__ import annotations
+
+import gzip
+import io
+import re
+import warnings
+import zlib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError, LidarTreesError, ReadError
+from ..progress import as_progress, check_cancel
+from .chunk import PointChunk
+
+
+_INT_TOKEN = re.compile(r"^[+-]?[0-9]+$")
+
+
+#: a plain ASCII decimal number (what the XYZ readers accept)
+_ASCII_NUMBER = re.compile(r"[+-]?(?:(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?|nan|inf|infinity)\Z",
+                           re.IGNORECASE)
+
+
+#: names accepted in an XYZ header or ``columns=`` for each attribute
+COLUMN_ALIASES = {
+    "x": ("x", "e", "east", "easting", "//x"),
+    "y": ("y", "n", "north", "northing"),
+    "z": ("z", "h", "height", "elev", "elevation", "alt", "altitude"),
+    "intensity": ("intensity", "i", "int"),
+    "return_number": ("return_number", "return", "returnnumber", "rn", "r"),
+    "number_of_returns": ("number_of_returns", "numberofreturns", "nr", "num_returns"),
+    "classification": ("classification", "class", "c", "cls"),
+}
+
+
+_ATTR_DTYPES = {"intensity": np.uint16, "return_number": np.uint8,
+                "number_of_returns": np.uint8, "classification": np.uint8}
+
+
+@dataclass
+class XYZDialect:
+    """How an XYZ text file is written."""
+
+    delimiter: str | None  # None = runs of white space
+    decimal_comma: bool
+    header: bool
+    columns: tuple  # attribute name per column, or None for ignored columns
+
+    def describe(self) -> str:
+        d = {None: "whitespace", "\t": "tab", ",": "comma", ";": "semicolon", " ": "space"}.get(
+            self.delimiter, repr(self.delimiter))
+        cols = ",".join(c or "-" for c in self.columns)
+        return f"delimiter={d} decimal={'comma' if self.decimal_comma else 'point'} header={self.header} columns={cols}"
+
+
+def _open_text(path: Path):
+    with open(path, "rb") as fh:
+        magic = fh.read(2)
+    if magic == b"\x1f\x8b":
+        return gzip.open(path, "rt", encoding="utf-8-sig", errors="replace", newline=None)
+    return open(path, "r", encoding="utf-8-sig", errors="replace", newline=None)  # BOM dropped
+
+
+_DELIMS = {"tab": "\t", "\\t": "\t", "\t": "\t", "space": None, "whitespace": None, " ": None,
+           "comma": ",", ",": ",", "semicolon": ";", ";": ";", "pipe": "|", "|": "|"}
+
+
+def _split(line: str, delimiter):
+    return line.split(delimiter) if delimiter is not None else line.split()
+
+
+def _is_number(tok: str, decimal_comma: bool) -> bool:
+    t = tok.strip()
+    if decimal_comma:
+        t = t.replace(",", ".")
+    try:
+        float(t)
+        return True
+    except ValueError:
+        return False
+
+
+def parse_columns(spec, ncols: int | None = None) -> tuple:
+    """Map a column list (``"x,y,z,intensity,-,classification"``) to attribute names."""
+    if isinstance(spec, str):
+        spec = [s.strip() for s in re.split(r"[,\s]+", spec.strip()) if s.strip()]
+    out = []
+    for i, name in enumerate(spec):
+        key = name.strip().lower()
+        if key in ("-", "_", "skip", "none", ""):
+            out.append(None)
+            continue
+        for attr, aliases in COLUMN_ALIASES.items():
+            if key in aliases:
+                if attr in out:
+                    raise InputError(f"columns: {attr!r} given twice in {spec!r}")
+                out.append(attr)
+                break
+        else:
+            out.append(None)  # unknown column: kept out
+    for need in ("x", "y", "z"):
+        if need not in out:
+            raise InputError(f"columns: no {need!r} column in {list(spec)!r}; "
+                             "give e.g. --columns x,y,z,intensity")
+    return tuple(out)
+
+
+def _warn_comma_pairs(path, lines) -> None:
+    """Warn when a comma-delimited file looks like decimal commas written with comma delimiters
+    (``412955,63,7952505,99,25,46``): every field an integer, and either the field count varies
+    between lines, or short integers (the decimals) follow long ones in columns 1 and 3."""
+    rows = [[t.strip() for t in ln.split(",")] for ln in lines]
+    data = [r for r in rows if r and all(_INT_TOKEN.match(t) for t in r)]
+    if len(data) < max(1, len(rows) - 1):
+        return
+    counts = {len(r) for r in data}
+    digits = lambda t: len(t.lstrip("+-"))  # noqa: E731
+    pairs = [r for r in data if len(r) >= 6 and len(r) % 2 == 0 and digits(r[0]) >= 5
+             and digits(r[1]) <= 4 and digits(r[3]) <= 4 and digits(r[2]) > digits(r[3])]
+    if len(counts) == 1 and len(pairs) < len(data):
+        return
+    from ..errors import DataWarning
+
+    r = data[0]
+    looks = len(pairs) if len(counts) == 1 else sum(len(x) != len(data[0]) for x in data) + 1
+    warnings.warn(DataWarning(
+        f"{path}: {looks:,} of the first {len(rows):,} lines look like decimal commas written "
+        f"with comma delimiters ({lines[-1][:60]!r}); they are read as x={r[0]}, y={r[1]}, "
+        f"z={r[2]}. Re-export with tabs or semicolons between the fields (both are read with "
+        "decimal commas), or name the columns with --columns if this is right"), stacklevel=2)
+
+
+def sniff_xyz(path, *, delimiter=None, decimal_comma=None, header=None, columns=None,
+              sample_lines: int = 50) -> XYZDialect:
+    """Detect an XYZ file's delimiter, decimal mark, header and columns.
+
+    Rules: a tab, then a semicolon, then white space, then a comma is the delimiter (the first
+    one found in every sampled line). With a tab, semicolon or white-space delimiter, a comma
+    inside numbers means a decimal comma (``412955,63<TAB>7952505,99<TAB>25,4654``). A first line
+    that is not all numbers is a header whose names map columns (x, y, z, intensity,
+    classification, return_number, number_of_returns). Every detected choice can be forced.
+    """
+    path = Path(path)
+    lines = []
+    try:
+        with _open_text(path) as fh:
+            for line in fh:
+                s = line.strip()
+                if not s or s.startswith("#"):
+                    continue
+                lines.append(s)
+                if len(lines) >= sample_lines:
+                    break
+    except (EOFError, OSError, zlib.error, UnicodeError) as exc:
+        raise ReadError(f"{path}: cannot read the text, the file is truncated or corrupt "
+                        f"({type(exc).__name__}: {str(exc)[:120]})") from None
+    if not lines:
+        raise InputError(f"{path}: no points (the file is empty or holds only comments)")
+    if delimiter is not None:
+        if delimiter not in _DELIMS and len(delimiter) != 1:
+            raise InputError(f"--delimiter: unknown delimiter {delimiter!r}; use tab, space, comma, "
+                             "semicolon or one character")
+        delim = _DELIMS.get(delimiter, delimiter)
+    else:
+        data = lines[1:] or lines
+        if all("\t" in ln for ln in data):
+            delim = "\t"
+        elif all(";" in ln for ln in data):
+            delim = ";"
+        elif all(re.search(r"\S\s+\S", ln) for ln in data):
+            delim = None
+        elif all("," in ln for ln in data):
+            delim = ","
+        else:
+            delim = None
+    data_line = lines[1] if len(lines) > 1 else lines[0]
+    if decimal_comma is None:
+        num_comma = re.compile(r"^[+-]?\d*,\d+([eE][+-]?\d+)?$")
+        decimal_comma = delim != "," and any(num_comma.match(t.strip())
+                                             for ln in lines for t in _split(ln, delim))
+    if decimal_comma and delim == ",":
+        raise InputError(f"{path}: a decimal comma cannot be used with a comma delimiter")
+    numeric = sum(1 for ln in lines
+                  if sum(_is_number(t.strip(), decimal_comma) for t in _split(ln, delim)) >= 2)
+    if numeric < max(1, (len(lines) - 1) / 2):
+        raise InputError(f"{path}: only {numeric} of the first {len(lines)} lines hold numbers; "
+                         "this is not point data (XYZ text has x y z per line)")
+    if delim == "," and not decimal_comma and columns is None:
+        _warn_comma_pairs(path, lines)
+    first = [t.strip() for t in _split(lines[0], delim)]
+    if header is None:
+        header = not all(_is_number(t, decimal_comma) for t in first if t)
+    ncols = len([t for t in _split(data_line, delim)])
+    if columns is not None:
+        cols = parse_columns(columns)
+    elif header:
+        try:
+            cols = parse_columns(first)
+        except InputError:
+            cols = parse_columns(["x", "y", "z"] + ["-"] * (ncols - 3))
+    else:
+        if ncols < 3:
+            raise InputError(f"{path}: line 1 has {ncols} column(s); need at least x, y, z "
+                             f"(line: {lines[0][:80]!r}); check --delimiter")
+        cols = ("x", "y", "z") + (None,) * (ncols - 3)
+    return XYZDialect(delim, bool(decimal_comma), bool(header), cols)
+
+
+def xyz_chunks(src, progress):
+    """Yield the points of the XYZ source ``src`` in chunks; bad lines fail with the file,
+    line and text, or are skipped and counted in ``src.skipped``."""
+    try:
+        yield from _xyz_chunks_raw(src, progress)
+    except LidarTreesError:
+        raise
+    except (EOFError, OSError, zlib.error, UnicodeError) as exc:
+        raise ReadError(f"{src.path}: cannot read the text, the file is truncated or "
+                        f"corrupt ({type(exc).__name__}: {str(exc)[:120]})") from None
+
+
+def _xyz_chunks_raw(src, progress):
+    prog = as_progress(progress)
+    d = src.dialect
+    usecols = [i for i, c in enumerate(d.columns) if c is not None]
+    names = [d.columns[i] for i in usecols]
+    ncol_min = max(usecols) + 1
+    size = src.path.stat().st_size or 1
+    with _open_text(src.path) as fh:
+        raw = fh.buffer if hasattr(fh, "buffer") else None
+        lineno = 0
+        if d.header:
+            for line in fh:
+                lineno += 1
+                if line.strip() and not line.lstrip().startswith("#"):
+                    break
+        while True:
+            check_cancel(progress)
+            block = []
+            for line in fh:
+                block.append(line)
+                if len(block) >= src.chunk_size:
+                    break
+            if not block:
+                break
+            start = lineno + 1
+            lineno += len(block)
+            arr = _parse_block(src, block, start, usecols, ncol_min)
+            try:
+                pos = raw.tell() if raw is not None else None
+                if pos is not None:
+                    prog.update(min(pos / size, 1.0), "reading points")
+            except (OSError, ValueError):
+                pass
+            if arr.shape[0] == 0:
+                continue
+            cols = {name: arr[:, j] for j, name in enumerate(names)}
+            chunk = PointChunk(
+                cols["x"].astype(np.float64), cols["y"].astype(np.float64),
+                cols["z"].astype(np.float64),
+                *(cols[a].astype(_ATTR_DTYPES[a]) if a in cols else None
+                  for a in ("classification", "return_number", "number_of_returns", "intensity")),
+            )
+            yield chunk
+    prog.update(1.0, "reading points")
+
+
+def _parse_block(src, block, start, usecols, ncol_min):
+    d = src.dialect
+    text = "".join(block)
+    if d.decimal_comma:
+        text = text.replace(",", ".")
+    try:
+        arr = np.loadtxt(io.StringIO(text), delimiter=d.delimiter, usecols=usecols,
+                         ndmin=2, comments="#", dtype=np.float64)
+        if arr.shape[0] and np.isfinite(arr).all():
+            return arr
+    except ValueError:
+        pass
+    # slow path: find (and skip, or report) the bad lines one by one
+    rows = []
+    for k, line in enumerate(block):
+        s = line.strip()
+        if not s or s.startswith("#"):
+            continue
+        toks = _split(s.replace(",", ".") if d.decimal_comma else s, d.delimiter)
+        why = None
+        if len(toks) < ncol_min:
+            why = f"{len(toks)} column(s), need {ncol_min}"
+        else:
+            try:
+                if not all(_ASCII_NUMBER.match(toks[i].strip()) for i in usecols):
+                    raise ValueError  # Python's float() takes '1_000' and non-ASCII digits
+                vals = [float(toks[i]) for i in usecols]
+                if not all(np.isfinite(vals)):
+                    why = "value is NaN or infinite"
+            except (ValueError, IndexError):
+                why = "not a number"
+        if why is None:
+            rows.append(vals)
+        elif src.skip_invalid:
+            src.skipped += 1
+        else:
+            raise InputError(f"{src.path}:{start + k}: {why}: {s[:120]!r} "
+                             f"(dialect: {d.describe()}; use --skip-invalid to skip bad lines)")
+    return np.asarray(rows, dtype=np.float64).reshape(-1, len(usecols))
