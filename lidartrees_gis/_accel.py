@@ -185,6 +185,8 @@ def raster_triangles(px, py, pz, tri, max_edge, left, top, res, height, width, o
                                 float(res), int(height), int(width), out, float(max_radius))
 
 
+# One function on purpose (192 lines): a numba kernel whose triangulation lives in local arrays;
+# split, the innermost loop would pass a dozen arrays per call and numba would not inline them.
 def _layered_tin_py(px, py, pz, band_end, band_edge, max_radius, left, top, res, height,
                     width, out):
     """Incremental Delaunay triangulation (Bowyer-Watson, walking point location) of points

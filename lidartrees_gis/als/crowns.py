@@ -255,6 +255,8 @@ def _fifo_push_py(fifo, tail, cap, value):
 _fifo_push = _jit(_fifo_push_py)
 
 
+# One function on purpose (108 lines): the numba kernel of the immersion, whose FIFO and label
+# arrays are local; split, its per-pixel loop would pass them on every call.
 def _vs_kernel(levels, valid):
     MASK, WSHED, INIT = -2, 0, -1
     H, W = levels.shape

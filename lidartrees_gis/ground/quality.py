@@ -2,6 +2,7 @@
 DTM each, GLCM texture, PCA and k-means, a CSV, hillshades and the recommended DTM."""
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -94,24 +95,9 @@ def dtm_quality_file(input, outdir, *, g="-4:1:0.5", w="1:4:0.5", res="auto", pa
     cluster. The recommended (g, w) is the good cluster's member nearest its centroid. ``rank``
     orders all DTMs by distance to the good centroid (1 = best).
     """
-    import os
-    from concurrent.futures import ProcessPoolExecutor
-    from concurrent.futures import TimeoutError as FutureTimeout
-
-    from dataclasses import replace
-
     out = Path(outdir)
     csv_path = out / "dtm_quality.csv"
-    from ..io.output import check_outputs
-
-    if out.is_dir():
-        check_outputs([(csv_path, "OUTPUT"), (out / "recommended_dtm.tif", "OUTPUT")], (input,),
-                      overwrite)
-    else:  # the folder is made at the end: the nearest existing folder above must take it
-        anc = out.absolute()
-        while not anc.exists():
-            anc = anc.parent
-        check_outputs([(anc / out.name, "OUTPUT")], (), False)
+    _check_outputs(out, csv_path, input, overwrite)
     gs, ws = parse_range(g, "-g"), parse_range(w, "-w")
     combos = [(gg, ww) for gg in gs for ww in ws]
     if len(combos) < 3:
@@ -122,32 +108,84 @@ def dtm_quality_file(input, outdir, *, g="-4:1:0.5", w="1:4:0.5", res="auto", pa
     r = resolve_resolution(src, res)
     spec = GridSpec.from_bounds(pts.x.min(), pts.y.min(), pts.x.max(), pts.y.max(), r, crs=src.crs)
     base = params or KrausPfeifer()
+    results = _sweep(pts, spec, base, combos, workers, SubProgress(prog, 0.05, 0.9))
+    c = _clusters(results, seed)
+    out.mkdir(parents=True, exist_ok=True)
+    _write_csv(csv_path, results, c)
+    pngs = _write_hillshades(out, results, c, r)
+    best = c["best"]
+    dtm_path = out / "recommended_dtm.tif"
+    params_best = replace(base, g=results[best][0], w=results[best][1]).as_dict()
+    write_geotiff(dtm_path, results[best][4], spec, overwrite=True,
+                  tags=raster_tags("dtm-quality", src, {"res": r, **params_best}),
+                  description="terrain height (m)")
+    labels, roles, good = c["labels"], c["roles"], c["good"]
+    g_eq_minus_w = [(gg, ww) for (gg, ww, *_) in results if abs(gg + ww) < 1e-9]
+    in_good = [k for k in g_eq_minus_w if labels[combos.index(k)] == good]
+    prog.update(1.0, "done")
+    return {"output": str(csv_path), "dtms": len(results), "res": r,
+            "selected_descriptors": [c["names"][i] for i in c["sel"]],
+            "pc1_variance": float(c["var"][0]),
+            "clusters": [int((labels == k).sum()) for k in sorted(roles)],
+            "good_cluster": good, "roles": {str(k): v for k, v in roles.items()},
+            "recommended_g": results[best][0], "recommended_w": results[best][1],
+            "g_equals_minus_w_in_good": f"{len(in_good)}/{len(g_eq_minus_w)}",
+            "pngs": pngs, "dtm": str(dtm_path), "reprojection": repro_report(src)}
+
+
+def _check_outputs(out: Path, csv_path: Path, input, overwrite: bool) -> None:
+    """The sweep's outputs may be written: in an existing folder, or a new one made at the
+    end, which the nearest existing folder above must take."""
+    from ..io.output import check_outputs
+
+    if out.is_dir():
+        check_outputs([(csv_path, "OUTPUT"), (out / "recommended_dtm.tif", "OUTPUT")], (input,),
+                      overwrite)
+        return
+    anc = out.absolute()
+    while not anc.exists():
+        anc = anc.parent
+    check_outputs([(anc / out.name, "OUTPUT")], (), False)
+
+
+def _sweep(pts, spec, base, combos, workers, prog) -> list:
+    """:func:`_sweep_one` for every (g, w), on ``workers`` processes (default: all cores)."""
+    import os
+    from concurrent.futures import ProcessPoolExecutor
+    from concurrent.futures import TimeoutError as FutureTimeout
+
     workers = workers or int(os.environ.get("LIDARTREES_WORKERS", 0)) or os.cpu_count() or 1
     results = []
-    if workers > 1:
-        with ProcessPoolExecutor(workers, initializer=_sweep_init,
-                                 initargs=(pts.x, pts.y, pts.z, spec, base)) as ex:
-            futs = [ex.submit(_sweep_one, c) for c in combos]
-            for i, f in enumerate(futs):
-                while True:
-                    try:
-                        results.append(f.result(timeout=0.5))
-                        break
-                    except FutureTimeout:
-                        if prog.canceled():
-                            for ff in futs:
-                                ff.cancel()
-                            check_cancel(prog)
-                prog.update(0.05 + 0.85 * (i + 1) / len(combos), f"g={combos[i][0]} w={combos[i][1]}")
-    else:
+    if workers <= 1:
         _sweep_init(pts.x, pts.y, pts.z, spec, base)
         for i, c in enumerate(combos):
             check_cancel(prog)
             results.append(_sweep_one(c))
-            prog.update(0.05 + 0.85 * (i + 1) / len(combos), f"g={c[0]} w={c[1]}")
+            prog.update((i + 1) / len(combos), f"g={c[0]} w={c[1]}")
+        return results
+    with ProcessPoolExecutor(workers, initializer=_sweep_init,
+                             initargs=(pts.x, pts.y, pts.z, spec, base)) as ex:
+        futs = [ex.submit(_sweep_one, c) for c in combos]
+        for i, f in enumerate(futs):
+            while True:
+                try:
+                    results.append(f.result(timeout=0.5))
+                    break
+                except FutureTimeout:
+                    if prog.canceled():
+                        for ff in futs:
+                            ff.cancel()
+                        check_cancel(prog)
+            prog.update((i + 1) / len(combos), f"g={combos[i][0]} w={combos[i][1]}")
+    return results
+
+
+def _clusters(results: list, seed: int) -> dict:
+    """Seed 003's analysis of the swept DTMs: descriptors selected by PC1, k-means (k = 3),
+    the clusters' roles, each DTM's rank and the recommended one."""
     names = list(results[0][3])
     X = np.array([[res_[3][n] for n in names] for res_ in results])
-    sel, load, var = pca_select(X, 0.3)
+    sel, _, var = pca_select(X, 0.3)
     if sel.size == 0:  # PC1 spread evenly (every |loading| < 0.3): keep every descriptor
         sel = np.arange(X.shape[1])
     Z = _standardise(X)[:, sel]
@@ -156,40 +194,33 @@ def dtm_quality_file(input, outdir, *, g="-4:1:0.5", w="1:4:0.5", res="auto", pa
     roles = cluster_roles(X, names, labels, npts)
     good = next(c for c, r in roles.items() if r == "good")
     dist = np.linalg.norm(Z - cent[good], axis=1)
-    rank = np.argsort(np.argsort(dist)) + 1
     members = np.nonzero(labels == good)[0]
-    best = int(members[np.argmin(dist[members])])
-    out.mkdir(parents=True, exist_ok=True)
+    return {"names": names, "sel": sel, "var": var, "Z": Z, "labels": labels, "cent": cent,
+            "roles": roles, "good": good, "rank": np.argsort(np.argsort(dist)) + 1,
+            "best": int(members[np.argmin(dist[members])])}
+
+
+def _write_csv(path: Path, results: list, c: dict) -> None:
     from ..io.output import atomic_output
 
-    with atomic_output(csv_path, overwrite=True) as tmp:
+    names, labels, roles, rank = c["names"], c["labels"], c["roles"], c["rank"]
+    with atomic_output(path, overwrite=True) as tmp:
         with open(tmp, "w", encoding="utf-8") as fh:
             fh.write("g,w,ground_points," + ",".join(names) + ",cluster,role,rank\n")
             for k, (gg, ww, ng, d, _) in enumerate(results):
                 fh.write(f"{gg:g},{ww:g},{ng}," + ",".join(f"{d[n]:.6g}" for n in names)
                          + f",{labels[k]},{roles[int(labels[k])]},{rank[k]}\n")
+
+
+def _write_hillshades(out: Path, results: list, c: dict, res: float) -> list:
+    """One hillshade PNG per cluster: the member nearest the cluster's centroid."""
     pngs = []
-    for c in sorted(roles):
-        mem = np.nonzero(labels == c)[0]
-        dc = np.linalg.norm(Z[mem] - cent[c], axis=1)
-        k = int(mem[np.argmin(dc)])
-        pth = out / f"hillshade_cluster{c}.png"
-        write_hillshade_png(pth, results[k][4], r, overwrite=True,
-                            title=f"cluster {c} ({roles[c]}): g={results[k][0]:g} "
-                                  f"w={results[k][1]:g}")
+    for k in sorted(c["roles"]):
+        mem = np.nonzero(c["labels"] == k)[0]
+        near = int(mem[np.argmin(np.linalg.norm(c["Z"][mem] - c["cent"][k], axis=1))])
+        pth = out / f"hillshade_cluster{k}.png"
+        write_hillshade_png(pth, results[near][4], res, overwrite=True,
+                            title=f"cluster {k} ({c['roles'][k]}): g={results[near][0]:g} "
+                                  f"w={results[near][1]:g}")
         pngs.append(str(pth))
-    dtm_path = out / "recommended_dtm.tif"
-    write_geotiff(dtm_path, results[best][4], spec, overwrite=True,
-                  tags=raster_tags("dtm-quality", src, {"res": r, **replace(base, g=results[best][0],
-                                                                          w=results[best][1]).as_dict()}),
-                  description="terrain height (m)")
-    g_eq_minus_w = [(gg, ww) for (gg, ww, *_), lab in zip(results, labels) if abs(gg + ww) < 1e-9]
-    in_good = [c for c in g_eq_minus_w if labels[combos.index(c)] == good]
-    prog.update(1.0, "done")
-    return {"output": str(csv_path), "dtms": len(results), "res": r,
-            "selected_descriptors": [names[i] for i in sel],
-            "pc1_variance": float(var[0]), "clusters": [int((labels == c).sum()) for c in sorted(roles)],
-            "good_cluster": good, "roles": {str(c): r for c, r in roles.items()}, "recommended_g": results[best][0],
-            "recommended_w": results[best][1], "g_equals_minus_w_in_good": f"{len(in_good)}/{len(g_eq_minus_w)}",
-            "pngs": pngs, "dtm": str(dtm_path),
-            "reprojection": repro_report(src)}
+    return pngs

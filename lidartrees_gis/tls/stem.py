@@ -92,6 +92,53 @@ def dmax_loop(x, y, circ: Circle, max_iter=50):
     return d < c.r + 2.0 * max(c.s, 1e-4), c
 
 
+def _stem_centre(x, y, z, p: DmaxParams) -> tuple:
+    """The stem's position near the base: the median x, y of the points 0.5-2.0 m above it."""
+    z0 = tree_base(z, "auto")
+    m = (z - z0 >= 0.5) & (z - z0 <= 2.0)
+    if m.sum() < p.min_points:
+        m = z - z0 <= max(2.0, 0.2 * (z.max() - z0))
+    return float(np.median(x[m])), float(np.median(y[m]))
+
+
+def _fit_section(sx, sy, cur, p: DmaxParams, row: dict):
+    """One section's circle (seed 004): search points every alpha on the previous circle (the
+    first section: the min-std centre, radius halved), the nearest point to each, a circle fitted
+    to those and the Dmax loop; when branches pull the fit away, the Dmax loop again from the
+    last circle. Returns ``(kept points mask, Circle or None, accepted)``; ``row`` gets the
+    selection counts."""
+    from scipy.spatial import cKDTree
+
+    if cur is None:
+        xc, yc, r = min_std_centre(sx, sy, (sx.mean(), sy.mean()))
+        start = Circle(xc, yc, r / 2.0, 0.0, 0.0, sx.size)
+    else:
+        start = cur
+    n_s = max(8, int(np.ceil(2 * np.pi * start.r / p.hspacing)))
+    alpha = np.arange(n_s) * (2 * np.pi / n_s)
+    sp = np.c_[start.xc + start.r * np.sin(alpha), start.yc + start.r * np.cos(alpha)]
+    _, nn = cKDTree(np.c_[sx, sy]).query(sp)
+    sel = np.unique(nn)
+    row.update(selected=int(sel.size), repeated=float(1 - sel.size / nn.size))
+    e = fit_circle(sx[sel], sy[sel], start=(start.xc, start.yc, max(start.r, 1e-3)))
+    keep, c = (None, None) if e is None else dmax_loop(sx, sy, e, p.max_iter)
+
+    def accept(keep, c):
+        good = c is not None and keep.sum() >= p.min_points and c.coverage >= p.min_coverage \
+            and c.r < p.search and c.s <= p.max_spread * c.r
+        if good and cur is not None:
+            good = abs(c.r - cur.r) <= p.max_jump * cur.r
+        return good
+
+    if accept(keep, c):
+        return keep, c, True
+    if cur is not None:  # branches pulled the fit away: the Dmax loop from the last circle
+        keep2, c2 = dmax_loop(sx, sy, Circle(cur.xc, cur.yc, cur.r, cur.s, 0.0, 0), p.max_iter)
+        if accept(keep2, c2):
+            return keep2, c2, True
+    return keep, c, False
+
+
 def dmax_filter(x, y, z, params: DmaxParams | None = None, *, centre=None, progress=None) -> dict:
     """Run the Dmax trunk filter on one tree.
 
@@ -109,18 +156,12 @@ def dmax_filter(x, y, z, params: DmaxParams | None = None, *, centre=None, progr
     points), ``trunk_section`` (their section ids), ``base``, ``tree_height``,
     ``reached_height``, ``dbh`` (m, NaN when not measured) and ``message``.
     """
-    from scipy.spatial import cKDTree
-
     p = params or DmaxParams()
     x, y, z = (np.asarray(a, float) for a in (x, y, z))
     if x.size < p.min_points:
         raise InputError(f"stem: {x.size} points; too few for a trunk")
     if centre is None:
-        z0 = tree_base(z, "auto")
-        m = (z - z0 >= 0.5) & (z - z0 <= 2.0)
-        if m.sum() < p.min_points:
-            m = z - z0 <= max(2.0, 0.2 * (z.max() - z0))
-        centre = (float(np.median(x[m])), float(np.median(y[m])))
+        centre = _stem_centre(x, y, z, p)
     near = (np.abs(x - centre[0]) <= p.search) & (np.abs(y - centre[1]) <= p.search)
     base = tree_base(z[near] if near.sum() >= p.min_points else z, p.base)
     zz = z - base
@@ -131,66 +172,31 @@ def dmax_filter(x, y, z, params: DmaxParams | None = None, *, centre=None, progr
     bounds = np.searchsorted(sec_id[order], np.arange(n_sections + 1))
     prog = as_progress(progress)
     rows, trunk_idx, trunk_sec = [], [], []
-    cur = None  # current circle
+    cur = None  # the last accepted circle
     cx, cy = centre
-    started = False
     gap = 0
     for i in range(int(p.start / p.section), n_sections):
         if i % 20 == 0:
             check_cancel(progress)
             prog.update(i / max(n_sections, 1), f"section {i + 1}/{n_sections}")
         idx = order[bounds[i]:bounds[i + 1]]
-        sq = (np.abs(x[idx] - cx) <= p.search) & (np.abs(y[idx] - cy) <= p.search)
-        idx = idx[sq]
+        idx = idx[(np.abs(x[idx] - cx) <= p.search) & (np.abs(y[idx] - cy) <= p.search)]
         row = {"section": i, "z": (i + 0.5) * p.section, "points_in": int(idx.size),
                "converged": False}
-        if idx.size < p.min_points:
-            rows.append(row)
-            gap += started
-            if started and gap >= p.max_gap:
-                break
-            continue
-        sx, sy = x[idx], y[idx]
-        if cur is None:  # first section: min-std centre, radius halved
-            xc, yc, r = min_std_centre(sx, sy, (sx.mean(), sy.mean()))
-            start = Circle(xc, yc, r / 2.0, 0.0, 0.0, idx.size)
-        else:
-            start = cur
-        n_s = max(8, int(np.ceil(2 * np.pi * start.r / p.hspacing)))
-        alpha = np.arange(n_s) * (2 * np.pi / n_s)
-        sp = np.c_[start.xc + start.r * np.sin(alpha), start.yc + start.r * np.cos(alpha)]
-        _, nn = cKDTree(np.c_[sx, sy]).query(sp)
-        sel = np.unique(nn)
-        row.update(selected=int(sel.size), repeated=float(1 - sel.size / nn.size))
-        e = fit_circle(sx[sel], sy[sel], start=(start.xc, start.yc, max(start.r, 1e-3)))
-        keep, c = (None, None) if e is None else dmax_loop(sx, sy, e, p.max_iter)
-
-        def accept(keep, c):
-            good = c is not None and keep.sum() >= p.min_points and c.coverage >= p.min_coverage \
-                and c.r < p.search and c.s <= p.max_spread * c.r
-            if good and cur is not None and started:
-                good = abs(c.r - cur.r) <= p.max_jump * cur.r
-            return good
-
-        ok = accept(keep, c)
-        if not ok and started:  # branches pulled the fit away: Dmax loop from the last circle
-            keep2, c2 = dmax_loop(sx, sy, Circle(cur.xc, cur.yc, cur.r, cur.s, 0.0, 0), p.max_iter)
-            if accept(keep2, c2):
-                keep, c, ok = keep2, c2, True
+        keep, c, ok = None, None, False
+        if idx.size >= p.min_points:
+            keep, c, ok = _fit_section(x[idx], y[idx], cur, p, row)
+        if c is not None:
+            row.update(xc=c.xc, yc=c.yc, r=c.r, diameter=c.diameter, s=c.s, coverage=c.coverage,
+                       points_kept=int(keep.sum()), converged=ok)
+        rows.append(row)
         if ok:
-            row.update(xc=c.xc, yc=c.yc, r=c.r, diameter=c.diameter, s=c.s,
-                       points_kept=int(keep.sum()), coverage=c.coverage, converged=True)
             trunk_idx.append(idx[keep])
             trunk_sec.append(np.full(int(keep.sum()), i, np.int64))
-            cur, cx, cy, started, gap = c, c.xc, c.yc, True, 0
-            rows.append(row)
-        else:
-            if c is not None:
-                row.update(xc=c.xc, yc=c.yc, r=c.r, diameter=c.diameter, s=c.s,
-                           coverage=c.coverage, points_kept=int(keep.sum()))
-            rows.append(row)
-            gap += started
-            if started and gap >= p.max_gap:
+            cur, cx, cy, gap = c, c.xc, c.yc, 0
+        elif cur is not None:
+            gap += 1
+            if gap >= p.max_gap:
                 break
     prog.update(1.0, "done")
     conv = [r for r in rows if r["converged"]]
