@@ -31,11 +31,11 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 DATA = ROOT.parent / "shared" / "data"
 
-from lidartrees_gis.report.evaluate import evaluate_trees
-from lidartrees_gis.io.points import PointChunk
-from lidartrees_gis.als.pipeline import trees_file
-from lidartrees_gis.synthetic import CRS, StandParams, make_stand, write_xyz_seed_dialect
-from lidartrees_gis.als.trees import TreeParams
+from lidartrees_gis.report.evaluate import evaluate_trees  # noqa: E402
+from lidartrees_gis.io.points import PointChunk  # noqa: E402
+from _trees import trees  # noqa: E402
+from lidartrees_gis.synthetic import CRS, StandParams, make_stand, write_xyz_seed_dialect  # noqa: E402
+from lidartrees_gis.als.trees import TreeParams  # noqa: E402
 
 #: what the issue reports for lidR on the same data
 LIDR = {"mixedconifer_trees": 205, "neon_one_top_share": 0.41, "neon_outside_share": 0.41}
@@ -43,7 +43,7 @@ LIDR = {"mixedconifer_trees": 205, "neon_one_top_share": 0.41, "neon_outside_sha
 TARGETS = {"synthetic_f": 0.97, "mixedconifer_range": (0.75 * 205, 1.25 * 205),
            "neon_one_top_share_min": 0.45, "neon_outside_share_max": 0.35}
 
-#: configurations: defaults first, then tuned / seed ones (keyword arguments of trees_file); the
+#: configurations: defaults first, then tuned / seed ones (keyword arguments of _trees.trees); the
 #: others without the planting-lattice look (-planting none), so that each measures its own tops
 CONFIGS = {
     "defaults": {},
@@ -72,7 +72,7 @@ def write_las(path, pts):
 
 def run(input_, out, **kw):
     t = time.perf_counter()
-    r = trees_file(input_, out, overwrite=True, **kw)
+    r = trees(input_, out, **kw)
     r["seconds"] = time.perf_counter() - t
     return r
 
@@ -95,7 +95,7 @@ def synthetic(tmp: Path, cfg: dict) -> dict:
                 write_las(f, pts)
             kw = {}
         r = run(f, tmp / "t.gpkg", **kw, **cfg)
-        t = r["result"]["table"]
+        t = r["table"]
         e = evaluate_trees(t["x"], t["y"], t["height"], truth["x"], truth["y"], truth["height"])
         e.pop("pairs")
         out[name] = {"trees": r["trees"], "truth": int(len(truth["x"])), "res": r["res"],
@@ -118,7 +118,7 @@ def density_sweep(tmp: Path) -> dict:
             f = tmp / f"sweep_{seed}_{dens:g}.las"
             write_las(f, pts)
             r = run(f, tmp / "s.gpkg")
-            t = r["result"]["table"]
+            t = r["table"]
             e = evaluate_trees(t["x"], t["y"], t["height"], truth["x"], truth["y"], truth["height"])
             out[f"{dens:g} pts/m², seed {seed}"] = {
                 "res": r["res"], "f_score": round(e["all"]["f_score"], 4),
@@ -147,7 +147,7 @@ def orientation(tmp: Path) -> dict:
             write_las(f, PointChunk(px, py, pts.z, classification=pts.classification))
             for res in (("auto", 0.4) if dens == 4.0 else ("auto",)):
                 r = run(f, tmp / "o.gpkg", res=res)
-                t = r["result"]["table"]
+                t = r["table"]
                 e = evaluate_trees(t["x"], t["y"], t["height"], tx, ty, truth["height"])["all"]
                 key = f"{dens:g} pts/m², rows at {deg:g}°" + ("" if res == "auto" else f", -tr {res:g}")
                 out[key] = {"res": r["res"], "f_score": round(e["f_score"], 4),
@@ -171,7 +171,7 @@ def mixedconifer(tmp: Path, cfg: dict) -> dict:
     order = np.lexsort((-z, tid))
     first = np.r_[True, tid[order][1:] != tid[order][:-1]]
     top = order[first]
-    t = r["result"]["table"]
+    t = r["table"]
     e = evaluate_trees(t["x"], t["y"], t["height"], x[top], y[top], z[top])
     e.pop("pairs")
     return {"trees": r["trees"], "lidR_trees": LIDR["mixedconifer_trees"],
@@ -195,7 +195,7 @@ def neon(tmp: Path, cfg: dict) -> dict:
             continue
         r = run(laz, tmp / "n.gpkg", a_srs="EPSG:32611", **cfg)
         secs += r["seconds"]
-        x, y = r["result"]["table"]["x"], r["result"]["table"]["y"]
+        x, y = r["table"]["x"], r["table"]["y"]
         inany = np.zeros(len(x), bool)
         k = 0
         for bb in b:
@@ -203,7 +203,7 @@ def neon(tmp: Path, cfg: dict) -> dict:
                    & (y <= float(bb["ymax"])))
             k += int(ins.sum() == 1)
             inany |= ins
-        h = r["result"]["table"]["height"]
+        h = r["table"]["height"]
         tall += int((h >= 10).sum())
         tall_out += int(((h >= 10) & ~inany).sum())
         per[laz.stem] = {"boxes": len(b), "one_top": k, "tops": int(len(x)),

@@ -64,9 +64,12 @@ def run_chain(folder: Path, out: Path, workers: int) -> dict:
     # single CPU, so the parallel LAZ decompressor cannot borrow the second core
     code = ("import sys, json, time, os; sys.path.insert(0, %r)\n"
             + ("os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})\n" if workers == 1 else "")
-            + "from lidartrees_gis.als.tiled import trees_tiled\n"
+            + "from lidartrees_gis.als.chain import trees_run\n"
+            "from lidartrees_gis.catalog.catalog import TilingOptions\n"
+            "from lidartrees_gis.io.output import OutputOptions\n"
             "t = time.perf_counter()\n"
-            "r = trees_tiled(%r, %r, workers=%d, overwrite=True)\n"
+            "r = trees_run(%r, %r, tiling=TilingOptions(workers=%d), "
+            "out=OutputOptions(overwrite=True))\n"
             "import resource\n"
             "s = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024\n"
             "c = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024\n"
@@ -154,7 +157,7 @@ def run_r_chain(pkg: str, folder: Path, res: float = 0.5) -> dict:
 
 
 def bcts_equality(tmp: Path) -> dict:
-    from lidartrees_gis.als.tiled import trees_tiled
+    from _trees import trees
 
     files = sorted((DATA / "lasR_bcts").glob("bcts_*.laz"))
     if len(files) < 4:
@@ -162,10 +165,10 @@ def bcts_equality(tmp: Path) -> dict:
     lst = tmp / "bcts.txt"
     lst.write_text("\n".join(str(f) for f in files))
     t = time.perf_counter()
-    a = trees_tiled(lst, tmp / "a.gpkg", workers=2, overwrite=True)
+    a = trees(lst, tmp / "a.gpkg", workers=2)
     ta = time.perf_counter() - t
     t = time.perf_counter()
-    b = trees_tiled(lst, tmp / "b.gpkg", tile_size=float("inf"), workers=1, overwrite=True)
+    b = trees(lst, tmp / "b.gpkg", tile_size=float("inf"), workers=1)
     tb = time.perf_counter() - t
     return {"tiled": {"trees": a["trees"], "tiles": a["tiles"], "seconds": round(ta, 1)},
             "untiled": {"trees": b["trees"], "tiles": b["tiles"], "seconds": round(tb, 1)},

@@ -31,11 +31,11 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 DATA = ROOT.parent / "shared" / "data"
 
-from lidartrees_gis.errors import InputError
-from lidartrees_gis.grid import GridSpec
-from lidartrees_gis.tin import interpolate_tin
-from lidartrees_gis.ground.filter import KrausPfeifer, filter_errors, kraus_pfeifer, low_points
-from lidartrees_gis.io.points import open_points
+from lidartrees_gis.errors import InputError  # noqa: E402
+from lidartrees_gis.grid import GridSpec  # noqa: E402
+from lidartrees_gis.tin import interpolate_tin  # noqa: E402
+from lidartrees_gis.ground.filter import KrausPfeifer, filter_errors, kraus_pfeifer, low_points  # noqa: E402
+from lidartrees_gis.io.points import open_points  # noqa: E402
 
 SAMPLES = ["samp11", "samp21", "samp23", "samp31", "samp41", "samp51", "samp53", "samp61"]
 FOREST = ["lidR_extdata/Topography.laz", "lasR_bcts/bcts_1.laz", "neon_teak_dev/TEAK_043.laz",

@@ -18,8 +18,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 DATA = ROOT.parent / "shared" / "data"
 
-from lidartrees_gis.io.points import open_points
-from lidartrees_gis.tls.stem import dmax_filter
+from lidartrees_gis.io.points import open_points  # noqa: E402
+from lidartrees_gis.tls.stem import dmax_filter  # noqa: E402
 
 TREES = ["TreeLS_tls/pine.laz", "TreeLS_tls/spruce.laz", "arbor_tls/tree_qsm.laz",
          "xyz_text/ITSMe_tree_1_pc.txt", "xyz_text/ITSMe_tree_2_pc.txt", "xyz_text/rTLS_pc_tree.txt"]

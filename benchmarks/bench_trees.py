@@ -20,8 +20,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 DATA = ROOT.parent / "shared" / "data"
 
-from lidartrees_gis.grid import GridSpec
-from lidartrees_gis.als.trees import METHODS, TreeParams, detect_trees
+from lidartrees_gis.grid import GridSpec  # noqa: E402
+from lidartrees_gis.als.trees import METHODS, TreeParams, detect_trees  # noqa: E402
 
 
 def synthetic_chm(n: int, res: float = 0.2, seed: int = 0) -> np.ndarray:
@@ -57,8 +57,8 @@ def time_methods(n: int, repeat: int) -> dict:
 
 
 def neon_boxes() -> dict:
-    from lidartrees_gis.als.pipeline import compute_surfaces
-    from lidartrees_gis.io.options import open_input
+    from lidartrees_gis.als.surfaces import SurfaceOptions, compute_surfaces
+    from lidartrees_gis.io.options import ReadOptions
 
     boxes_f = DATA / "neon_teak_dev" / "teak_crowns_utm11n.csv"
     if not boxes_f.exists():
@@ -70,7 +70,8 @@ def neon_boxes() -> dict:
         b = [r for r in rows if r["plot_id"] == laz.stem]
         if not b:
             continue
-        s = compute_surfaces(open_input(laz, a_srs="EPSG:32611"), 0.5, dtm="ground")
+        s = compute_surfaces(ReadOptions(a_srs="EPSG:32611").open(laz), 0.5,
+                             SurfaceOptions(dtm="ground", chm="max"))
         r = detect_trees(s["chm"], s["spec"], TreeParams(smooth="gauss3", min_height=3))
         x, y = r["table"]["x"], r["table"]["y"]
         k = 0

@@ -2,7 +2,7 @@
 
 The algorithms run the ``lidartrees`` CLI in a subprocess, from the Python environment where
 lidartrees_gis and its dependencies are installed (see the README's QGIS section). The QGIS
-process itself only reads the parameter table (``lidartrees_gis.commands``, standard library
+process itself only reads the parameter table (``lidartrees_gis.cli.commands``, standard library
 only; the plugin zip carries a copy), so numpy, GDAL and GEOS builds never meet QGIS's own.
 
 Where the command is looked up, first found wins:
@@ -29,7 +29,7 @@ def _ensure_path():
 
 
 def commands():
-    """The shared command table (lidartrees_gis.commands.COMMANDS)."""
+    """The shared command table (lidartrees_gis.cli.commands.COMMANDS)."""
     _ensure_path()
     return importlib.import_module("lidartrees_gis.cli.commands").COMMANDS
 

@@ -1,12 +1,12 @@
 """One generic processing algorithm per ``lidartrees`` command.
 
-Parameters are built from the command's :class:`lidartrees_gis.commands.Param` list, so the
+Parameters are built from the command's :class:`lidartrees_gis.cli.commands.Param` list, so the
 toolbox and the CLI share names, defaults, choices and help (parameter ids are the upper-case
 names). The algorithm turns the values into ``lidartrees`` arguments and runs the CLI in a
 subprocess (see ``_lib``): progress comes back as ``PROGRESS`` lines, a cancel terminates the
 process (which removes its temporary outputs), and the CLI's error line becomes a
 QgsProcessingException. It holds no algorithm code. Adding a command to
-``lidartrees_gis.commands.COMMANDS`` adds its algorithm here.
+``lidartrees_gis.cli.commands.COMMANDS`` adds its algorithm here.
 """
 import json
 import os

@@ -1,26 +1,28 @@
-"""One plan for an area, whatever its size or how it is split into files: cell size, pit-free
-edge limit, crown scale, dominant height, tiles and buffer, measured once, by one rule.
+"""One plan for an area, whatever its size or how it is split into files: cell size, what the
+tiles' surfaces take from the area, crown scale, dominant height, tiles and buffer, measured once,
+by one rule.
 
 The rule (lidR's LAScatalog and lasR's pipeline do the same: the per-tile function knows nothing
 of where its tile came from):
 
-* the area is measured on **windows** (:func:`measurement_windows`): an area narrower than two
-  windows (300 m) along an axis is one window along it; up to 450 m it is cut into two or three
-  windows that cover it; wider areas are sampled by three 150 m windows along the axis (at 1/6,
-  1/2 and 5/6). A file of less than 300 x 300 m is therefore measured whole, as one file always
-  was;
-* the **cell size** (``-tr auto``) comes from the median point density of the windows, each
-  over the 3 m cells that hold points (clipped to the window), so a stand turned in its
-  bounding box, gaps between files and empty corners do not count;
-* the **edge limit**, **crown scale** and **dominant height** are the medians of the windows'
-  own values (:func:`lidartrees_gis.als.chm.pitfree_edge`,
-  :func:`lidartrees_gis.als.chm.crown_scale`, the 95th percentile of the canopy heights);
+* the area is measured on **windows** (:func:`measurement_windows`): an area of at most
+  :data:`ONE_TILE_POINTS` points and at most :data:`MAX_TILE_SIZE` across is measured whole, as
+  one file always was; a larger one on up to nine 150 m windows centred at 1/6, 1/2 and 5/6 of
+  its sides;
+* the **cell size** (``-tr auto``) comes from the median point density of the windows, each over
+  its box or, when that is denser, over the 3 m cells that hold points (a stand turned in its
+  bounding box, gaps between files, empty corners);
+* the **surface statistics** (:class:`~lidartrees_gis.als.surfaces.SurfaceStats`: pit-free edge
+  limit, footprint reach, ``lowest:R`` median, what ``-dtm auto`` chose), the **crown scale** and
+  the **dominant height** are the medians of the windows' own values (``ground`` for
+  ``-dtm auto`` when any window has ground points);
 * an area of at most :data:`ONE_TILE_POINTS` points that fits in :data:`MAX_TILE_SIZE` is **one
   tile** (no buffer needed), otherwise tiles of :func:`auto_tile_size`; the buffer is
   :data:`BUFFER_CROWNS` crown scales, at least :data:`MIN_BUFFER` m.
 
 Everything here depends on the points only, so the trees of an area do not depend on how it is
-tiled (tiled = untiled), and a single file is a catalog of one processed as one tile.
+tiled (tiled = untiled), and a single file is a catalog of one processed as one tile. When the
+area is one window and one tile, the window's surfaces serve the tile (computed once).
 """
 from __future__ import annotations
 

@@ -181,7 +181,7 @@ def adaptive_maxima(chm, res: float, *, crown_scale: float, dominant_height: flo
     ``r = factor · crown_scale · sqrt(h / dominant_height)`` metres (at least one cell), ``h`` being
     its own height: tall trees, whose crowns are wide, search further than the small trees
     between them, and the whole window follows the crown size measured on the stand
-    (:func:`lidartrees_gis.chm.crown_scale`) rather than a fixed function of height, so a
+    (:func:`lidartrees_gis.als.chm.crown_scale`) rather than a fixed function of height, so a
     3 x 2 m eucalyptus stand and a conifer forest of the same height both come out right.
     One top per plateau as in :func:`local_maxima`. Tops closer than ``min_separation`` metres to
     a higher top are then dropped, highest first (the two sides of a crown apex that no return

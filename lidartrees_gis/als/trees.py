@@ -60,14 +60,14 @@ class TreeParams:
     smooth : str
         ``auto`` (default): a Gaussian whose sigma is ``SIGMA_FACTOR`` crown scales (none when
         that is under a third of a cell); or a CHM filter of
-        :func:`lidartrees_gis.smooth.smooth`, e.g. none, gauss3, gauss5, abefec:rhombus (seed 000).
+        :func:`lidartrees_gis.als.smooth.smooth`, e.g. none, gauss3, gauss5, abefec:rhombus (seed 000).
     min_height : float
         Minimum tree height, m (2 m, seed 000).
     step : float
         Region-growing threshold step ``ajuste``, m (0.1, seed 000 Annex 2).
     tops : {"auto", "aw", "lm", "strict", "treex", "vwf"}
         Tree-top finder for rg/mcws/treex: aw = adaptive window (crown scale x height, see
-        :func:`lidartrees_gis.detect.adaptive_maxima`); lm = 8-neighbour local maxima, one per
+        :func:`lidartrees_gis.als.tops.adaptive_maxima`); lm = 8-neighbour local maxima, one per
         plateau (seed 000); strict = strictly higher than all 8 neighbours (seed 000's literal
         rule); treex = TreeX moving window (seed 001); vwf = window 0.1 h + 0.5 m; auto = treex
         for the treex method, aw with ``smooth="auto"``, else lm (the seeds' behaviour).
@@ -84,7 +84,7 @@ class TreeParams:
         the smaller spacing) and turns on the stocking report.
     crown_scale : float, optional
         Crown scale (m) for ``auto``; default measured on the CHM
-        (:func:`lidartrees_gis.chm.crown_scale`) or from ``spacing``.
+        (:func:`lidartrees_gis.als.chm.crown_scale`) or from ``spacing``.
     window_factor : float
         Adaptive window radius for a tree of the dominant height, in crown scales.
     dominant_height : float, optional
@@ -100,7 +100,7 @@ class TreeParams:
         two close trees; off as in the seed).
     planting : {"auto", "none"}
         Without ``spacing``: ``auto`` looks for a planting lattice under the tops
-        (:func:`lidartrees_gis.stocking.detect_planting`) and, when there is one, looks again
+        (:func:`lidartrees_gis.als.stocking.detect_planting`) and, when there is one, looks again
         at its empty positions for trees the tops finder missed (in tiled runs, each tile on
         its own); ``none`` does not.
     """
@@ -171,7 +171,7 @@ def resolve_auto(chm, res: float, p: TreeParams) -> dict:
     """What ``-smooth auto`` and the adaptive window use on this CHM.
 
     * crown scale L (m): ``p.crown_scale``, else ``SPACING_FACTOR`` x the smaller planting
-      spacing, else measured on the CHM (:func:`lidartrees_gis.chm.crown_scale`);
+      spacing, else measured on the CHM (:func:`lidartrees_gis.als.chm.crown_scale`);
     * dominant height: 95th percentile of the canopy heights >= ``min_height``;
     * Gaussian sigma = ``SIGMA_FACTOR`` x L, applied when at least a third of a cell.
     """
@@ -273,7 +273,7 @@ def detect_trees(chm, spec: GridSpec, params: TreeParams | None = None, *, heigh
 
     Returns
     -------
-    dict with ``table`` (per-tree arrays, see :func:`lidartrees_gis.metrics.tree_table`),
+    dict with ``table`` (per-tree arrays, see :func:`lidartrees_gis.als.metrics.tree_table`),
     ``labels`` (crown label grid, crown ``i + 1`` belongs to row ``i`` of the table),
     ``smoothed`` (the filtered CHM) and ``params``.
     Every crown holds exactly its own top; heights come from the unsmoothed ``chm``.

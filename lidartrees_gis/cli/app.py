@@ -1,5 +1,5 @@
 """``lidartrees`` command line, GDAL/OGR style (``-tr``, ``-a_srs``, ``-t_srs``, ``-co``,
-``-overwrite``, ``-q``). Options are built from :mod:`lidartrees_gis.commands`.
+``-overwrite``, ``-q``). Options are built from :mod:`lidartrees_gis.cli.commands`.
 
 Exit codes: 0 success, 1 error (one-line message on stderr), 2 usage error, 130 cancelled.
 """
