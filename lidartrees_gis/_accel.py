@@ -39,9 +39,12 @@ def _accumulate_py(x, y, z, col0, row0, res, height, width, eps, count, mx, mn, 
     do_min = mn.shape[0] > 0
     do_sum = sm.shape[0] > 0
     do_count = count.shape[0] > 0
+    inv = 1.0 / res
     for i in range(x.shape[0]):
-        fc = np.floor(x[i] / res + eps) - col0
-        fr = np.floor(y[i] / res + eps) - row0
+        # x * inv + eps rounds the same way in every grid; less the grid's first column, an
+        # integer, exactly (the cells of the global grid, as GridSpec.cell_index)
+        fc = (x[i] * inv + eps) - col0
+        fr = (y[i] * inv + eps) - row0
         # compared as floats before any int conversion: NaN, inf and 1e300 never become an index
         if not (fc >= 0.0 and fr >= 0.0 and fc < width and fr < height):
             outside += 1

@@ -56,10 +56,11 @@ class GridSpec:
         vals = (xmin, ymin, xmax, ymax)
         if not all(np.isfinite(v) for v in vals) or xmax < xmin or ymax < ymin:
             raise InputError(f"bounds: invalid bounds {vals}")
-        c0 = math.floor(xmin / res + EDGE_EPS)
-        c1 = math.floor(xmax / res + EDGE_EPS)
-        r0 = math.floor(ymin / res + EDGE_EPS)
-        r1 = math.floor(ymax / res + EDGE_EPS)
+        inv = 1.0 / res  # the arithmetic of cell_index and of the compiled kernel
+        c0 = math.floor(xmin * inv + EDGE_EPS)
+        c1 = math.floor(xmax * inv + EDGE_EPS)
+        r0 = math.floor(ymin * inv + EDGE_EPS)
+        r1 = math.floor(ymax * inv + EDGE_EPS)
         width, height = c1 - c0 + 1, r1 - r0 + 1
         if width * height > 2_000_000_000:
             raise InputError(f"-tr: {res} m gives a {width} x {height} grid; use a larger resolution")
@@ -88,8 +89,9 @@ class GridSpec:
         """``(column, row)`` of the grid's lower-left cell in the global grid of cells of
         ``res`` (cell ``(i, j)`` holds ``i res <= x < (i + 1) res``), or None for a grid whose
         corner is not on a multiple of ``res`` (a raster from elsewhere)."""
-        c = self.left / self.res
-        r = (self.top - self.height * self.res) / self.res
+        inv = 1.0 / self.res
+        c = self.left * inv
+        r = (self.top - self.height * self.res) * inv
         if abs(c - round(c)) < 1e-6 and abs(r - round(r)) < 1e-6:
             return float(round(c)), float(round(r))
         return None
@@ -99,15 +101,17 @@ class GridSpec:
 
         A point's cell is that of the global grid (``floor(x / res)``), so a point gets the
         same cell in every grid that holds it: the grid of a tile and of the whole area agree
-        even for points on cell edges (the same arithmetic as the compiled kernel)."""
+        even for points on cell edges (``floor(x * (1 / res))``, the arithmetic of
+        :meth:`from_bounds` and of the compiled kernel)."""
         o = self.origin_cells()
         x, y = np.asarray(x), np.asarray(y)
         if o is None:  # a grid off the global lattice: from its own corner
             o = (0.0, 0.0)
             x = x - self.left
             y = y - (self.top - self.height * self.res)
-        col = (np.floor(x / self.res + EDGE_EPS) - o[0]).astype(np.int64)
-        row = (self.height - 1) - (np.floor(y / self.res + EDGE_EPS) - o[1]).astype(np.int64)
+        inv = 1.0 / self.res
+        col = (np.floor(x * inv + EDGE_EPS) - o[0]).astype(np.int64)
+        row = (self.height - 1) - (np.floor(y * inv + EDGE_EPS) - o[1]).astype(np.int64)
         return row, col
 
     def xy(self, row, col):

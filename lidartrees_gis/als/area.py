@@ -152,18 +152,35 @@ class AreaPlan:
         return len(self.tiles) == 1
 
 
-def _resolution(area, surface: SurfaceOptions, rule: str, runner, progress) -> tuple:
-    """``(cell size, density, windows)`` of the area."""
-    windows = measurement_windows(area.extent, area.count)
+def one_tile_area(area) -> bool:
+    """Whether the area is processed as one tile by default (see the module doc)."""
     if isinstance(area, RasterArea):
-        return area.spec.res, float("nan"), windows
+        return area.count <= ONE_TILE_CELLS
+    x0, y0, x1, y1 = area.extent
+    return area.count <= ONE_TILE_POINTS and max(x1 - x0, y1 - y0) <= MAX_TILE_SIZE
+
+
+def area_density(area, windows, runner, progress=None) -> float:
+    """The area's point density: the median of its windows' (:func:`window_density`)."""
     dens = [d for d in runner.map(window_density, windows, (area,), ordered=True,
                                   label="window", progress=progress, inner_progress=True)
             if np.isfinite(d)]
-    density = float(np.median(dens)) if dens else float("nan")
+    return float(np.median(dens)) if dens else float("nan")
+
+
+def _resolution(area, surface: SurfaceOptions, tiling: TilingOptions, rule: str, runner,
+                progress) -> tuple:
+    """``(cell size, density, windows)`` of the area; the density is NaN where nothing needs it
+    (a cell size given and the tiles' side given or one tile)."""
+    windows = measurement_windows(area.extent, area.count)
+    if isinstance(area, RasterArea):
+        return area.spec.res, float("nan"), windows
+    if not surface.auto_res and (tiling.tile_size is not None or one_tile_area(area)):
+        return float(surface.res), float("nan"), windows
+    density = area_density(area, windows, runner, progress)
     if not surface.auto_res:
         return float(surface.res), density, windows
-    if not dens:
+    if not np.isfinite(density):
         raise InputError(f"{area.label()}: -tr auto needs a point density, and the points cover "
                          "no area (none, all at one location or on a line); give -tr RES")
     if rule == "density":  # seed 003's sqrt(1/n), grids and DTMs
@@ -176,10 +193,10 @@ def _tile_side(area, tiling: TilingOptions, density: float, res: float) -> float
     x0, y0, x1, y1 = area.extent
     ts = tiling.tile_size
     if ts is None:
-        if isinstance(area, RasterArea):
-            ts = math.inf if area.count <= ONE_TILE_CELLS else RASTER_TILE_CELLS * res
-        elif area.count <= ONE_TILE_POINTS and max(x1 - x0, y1 - y0) <= MAX_TILE_SIZE:
+        if one_tile_area(area):
             ts = math.inf
+        elif isinstance(area, RasterArea):
+            ts = RASTER_TILE_CELLS * res
         else:
             ts = auto_tile_size(density)
     return max(res, round(ts / res) * res) if math.isfinite(ts) else ts
@@ -222,7 +239,8 @@ def plan_area(area, surface: SurfaceOptions, tiling: TilingOptions, *, runner, p
         return runner.map(fn, items, args, ordered=True, label="window",
                           progress=SubProgress(prog, 0.3, 1.0))
 
-    res, density, windows = _resolution(area, surface, rule, runner, SubProgress(prog, 0.0, 0.3))
+    res, density, windows = _resolution(area, surface, tiling, rule, runner,
+                                        SubProgress(prog, 0.0, 0.3))
     x0, y0, x1, y1 = area.extent
     if not isinstance(area, RasterArea):
         cells = (x1 - x0) / res * ((y1 - y0) / res)

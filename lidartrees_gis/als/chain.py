@@ -123,8 +123,8 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
         plan, ready = plan_area(area, surface, tiling, runner=runner, params=p, keep=True,
                                 progress=SubProgress(prog, 0.02, 0.45))
         p = replace(p, crown_scale=plan.crown_scale, dominant_height=plan.dominant_height)
-        if p.spacing is not None and np.isfinite(plan.density):
-            warn_sparse_plantation(plan.density)
+        if p.spacing is not None and isinstance(area, Catalog):
+            warn_sparse_plantation(_density(area, plan, ready, runner))
         summary = TreesSummary()
         with contextlib.ExitStack() as stack:
             sinks = _trees_sinks(stack, input, output, area, p, plan, surface, out, csv, chm_out,
@@ -148,6 +148,18 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
             sinks["quicklook"].write(png, _title(row, input), out.overwrite)
     prog.update(1.0, "done")
     return _trees_result(output, area, plan, summary, row, p, sinks["layers"], surface)
+
+
+def _density(area, plan: AreaPlan, ready, runner) -> float:
+    """Points per m² of the area: the plan's, else (a cell size was given) those of the one
+    tile's surfaces over its data footprint, else measured on the plan's windows."""
+    from .area import area_density, measurement_windows
+
+    if np.isfinite(plan.density):
+        return plan.density
+    if ready is not None:
+        return ready["density"]
+    return area_density(area, measurement_windows(area.extent, area.count), runner)
 
 
 def _trees_sinks(stack, input, output, area, p, plan, surface, out, csv, chm_out, png) -> dict:

@@ -171,8 +171,9 @@ def bilinear(arr, spec: GridSpec, x, y):
         col = (x - spec.left) / spec.res - 0.5
         row = (spec.top - y) / spec.res - 0.5
     else:
-        col = (x / spec.res - o[0]) - 0.5
-        row = ((o[1] + spec.height) - y / spec.res) - 0.5
+        inv = 1.0 / spec.res
+        col = (x * inv - o[0]) - 0.5
+        row = ((o[1] + spec.height) - y * inv) - 0.5
     return ndimage.map_coordinates(np.asarray(arr, np.float64), [row, col], order=1, mode="nearest")
 
 
