@@ -1,9 +1,8 @@
-import os
 from pathlib import Path
 
 import pytest
 
-DATA = Path(os.environ.get("LIDARTREES_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data")).resolve()
+from _paths import DATA
 
 
 def data_file(rel: str) -> Path:

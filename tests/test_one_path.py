@@ -12,7 +12,7 @@ from lidartrees_gis.als.chain import trees_run
 from lidartrees_gis.catalog.catalog import Catalog, TilingOptions
 from lidartrees_gis.io.output import OutputOptions
 
-from conftest import DATA
+from _paths import DATA
 
 FILES = sorted(str(p.relative_to(DATA)) for p in DATA.rglob("*.la[sz]")) if DATA.exists() else []
 
