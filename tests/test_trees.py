@@ -76,8 +76,13 @@ def test_treex_max_crown_area_in_cells():
 
 def test_treex_window_finds_tops():
     chm, _ = paraboloids((36, 38), TOPS)
+    want = {(t[0], t[1]) for t in TOPS}
+    r, c = treex_maxima(chm, 1.0, mean_crown_area=25.0, sd_crown_area=4.0, local=True)
+    assert set(zip(r.tolist(), c.tolist())) == want
+    # as the seed defines it (no local test) every top is found, and flank cells beside
     r, c = treex_maxima(chm, 1.0, mean_crown_area=25.0, sd_crown_area=4.0)
-    assert sorted(zip(r.tolist(), c.tolist())) == sorted((t[0], t[1]) for t in TOPS)
+    got = set(zip(r.tolist(), c.tolist()))
+    assert want < got
     r2, _ = variable_window_maxima(chm, 1.0)
     assert len(r2) == 4
 
@@ -110,7 +115,7 @@ def test_every_crown_holds_exactly_its_top(method):
     chm, _ = paraboloids((36, 38), TOPS)
     spec = GridSpec(0.0, 36.0, 1.0, 38, 36)
     res = detect_trees(chm, spec, TreeParams(method=method, mean_crown_area=25, sd_crown_area=4,
-                                             max_crown_area=500))
+                                             max_crown_area=500, treex_local=True))
     t, lab = res["table"], res["labels"]
     assert len(t["tree_id"]) == 4 and len(set(t["tree_id"].tolist())) == 4
     assert lab[t["row"], t["col"]].tolist() == [1, 2, 3, 4]
@@ -168,10 +173,8 @@ def _annex2_reference(chm, seeds_r, seeds_c, hmax, hmin, step, labels):
     q = [(int(r), int(c)) for r, c in zip(seeds_r, seeds_c)]
     for i, (r, c) in enumerate(q):
         labels[r, c] = i + 1
-    lev = int(np.floor(hmax / step))
-    if lev * step >= hmax:
-        lev -= 1
-    thr = lev * step
+    k = 1
+    thr = hmax - k * step  # Annex 2: the grid's maximum minus k ajuste
     while thr > hmin and q:
         keep = []
         pos = 0
@@ -190,8 +193,8 @@ def _annex2_reference(chm, seeds_r, seeds_c, hmax, hmin, step, labels):
             if open_nb:
                 keep.append((r, c))
         q = keep
-        lev -= 1
-        thr = lev * step
+        k += 1
+        thr = hmax - k * step
     return labels
 
 

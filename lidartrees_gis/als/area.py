@@ -114,22 +114,48 @@ def window_density(box, catalog, progress=None) -> float:
     return max(n / box_area, n / (len(cells) * FOOTPRINT_CELL ** 2))
 
 
-def window_measures(s, min_height: float, want_scale: bool) -> dict | None:
-    """The edge limit, 95th percentile of the canopy heights and crown scale of one window's
-    surfaces ``s`` (None: no surfaces)."""
+def window_measures(s, params=None) -> dict | None:
+    """What one window's surfaces ``s`` tell of the area (None: no surfaces): their
+    :class:`SurfaceStats`, and with tree ``params`` the 95th percentile of the canopy heights,
+    the crown scale (unless given) and, for region growing, the highest value of the smoothed
+    CHM (Annex 2's ``altura_max``)."""
     if s is None:
         return None
-    chm = s["chm"]
-    canopy = chm[np.isfinite(chm) & (chm >= min_height)]
-    return {"stats": s.get("stats"),
-            "p95": float(np.percentile(canopy, 95)) if canopy.size else float("nan"),
-            "crown_scale": (crown_scale(chm, s["spec"].res, min_height=min_height)
-                            if want_scale else float("nan"))}
+    out = {"stats": s.get("stats"), "p95": float("nan"), "crown_scale": float("nan"),
+           "top": float("nan")}
+    if params is None:
+        return out
+    chm, res = s["chm"], s["spec"].res
+    canopy = chm[np.isfinite(chm) & (chm >= params.min_height)]
+    if canopy.size:
+        out["p95"] = float(np.percentile(canopy, 95))
+    cs = params.crown_scale
+    if cs is None and params.spacing is not None:
+        from .trees import SPACING_FACTOR
+
+        cs = SPACING_FACTOR * min(params.spacing)
+    if cs is None:
+        cs = out["crown_scale"] = crown_scale(chm, res, min_height=params.min_height)
+    if params.method == "rg":
+        out["top"] = _smoothed_top(chm, res, params, cs)
+    return out
 
 
-def window_canopy(box, area, res, surface, min_height, want_scale):
+def _smoothed_top(chm, res: float, params, cs) -> float:
+    """The highest value of the CHM smoothed as the trees' detection smooths it."""
+    from .smooth import smooth
+    from .trees import auto_smoothing
+
+    filt = params.smooth
+    if filt == "auto":
+        filt = auto_smoothing(cs if cs is not None and np.isfinite(cs) else 2.0 * res, res)[0]
+    a = smooth(np.asarray(chm, np.float64), filt, res=res)
+    return float(np.nanmax(a)) if np.isfinite(a).any() else float("nan")
+
+
+def window_canopy(box, area, res, surface, params):
     """:func:`window_measures` of the surfaces of one window (a task)."""
-    return window_measures(box_surfaces(area, box, res, surface), min_height, want_scale)
+    return window_measures(box_surfaces(area, box, res, surface), params)
 
 
 @dataclass(frozen=True)
@@ -142,6 +168,7 @@ class AreaPlan:
     crown_scale: float | None  # m
     crown_scale_source: str  # measured | given | spacing | default (no canopy to measure)
     dominant_height: float | None  # m
+    top_height: float | None  # region growing's start: the highest smoothed canopy height (m)
     windows: int
     tiles: tuple
     buffer: float
@@ -245,26 +272,25 @@ def plan_area(area, surface: SurfaceOptions, tiling: TilingOptions, *, runner, p
     if not isinstance(area, RasterArea):
         cells = (x1 - x0) / res * ((y1 - y0) / res)
         check_sparse(cells, area.count, area.extent, res, area.path)
-    want_scale = params is not None and params.crown_scale is None and params.spacing is None
     ts = _tile_side(area, tiling, density, res)
     measures, kept = [], None
     if rule != "density":
-        min_height = params.min_height if params is not None else 2.0
         if keep and len(windows) == 1 and math.isinf(ts):
             # the area is one window and one tile: its surfaces serve both, computed once here
             kept = box_surfaces(area, windows[0], res, surface,
                                 progress=SubProgress(prog, 0.3, 1.0))
-            measures = [window_measures(kept, min_height, want_scale)]
+            measures = [window_measures(kept, params)]
         else:
-            measures = list(run(window_canopy, windows, (area, res, surface, min_height,
-                                                         want_scale)))
+            measures = list(run(window_canopy, windows, (area, res, surface, params)))
     measures = [m for m in measures if m is not None]
     stats = _area_stats([m["stats"] for m in measures if m["stats"] is not None])
     cs, source, hd = _crown_scale_and_height(params, measures, res)
+    tops = [m["top"] for m in measures if np.isfinite(m["top"])]
     buf = tiling.buffer if tiling.buffer is not None else (
         buffer if buffer is not None else max(MIN_BUFFER, BUFFER_CROWNS * (cs or 0.0)))
     tiles = tuple(make_tiles(area.extent, ts, buf))
-    plan = AreaPlan(res, density, stats, cs, source, hd, len(windows), tiles, buf, ts)
+    plan = AreaPlan(res, density, stats, cs, source, hd, max(tops) if tops else None,
+                    len(windows), tiles, buf, ts)
     return plan, kept
 
 

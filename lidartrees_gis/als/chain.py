@@ -122,7 +122,8 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
         prog.update(0.01, "measuring the area")
         plan, ready = plan_area(area, surface, tiling, runner=runner, params=p, keep=True,
                                 progress=SubProgress(prog, 0.02, 0.45))
-        p = replace(p, crown_scale=plan.crown_scale, dominant_height=plan.dominant_height)
+        p = replace(p, crown_scale=plan.crown_scale, dominant_height=plan.dominant_height,
+                    top_height=plan.top_height)
         if p.spacing is not None and isinstance(area, Catalog):
             warn_sparse_plantation(_density(area, plan, ready, runner))
         summary = TreesSummary()

@@ -1,5 +1,11 @@
 """Seed 000's Table 1 (``lidartrees compare``): ten smoothing and segmentation configurations of
-Castro (2006) run on one CHM, with the trees, mean height and mean crown diameter of each."""
+Castro (2006) run on one CHM, with the trees, mean height and mean crown diameter of each.
+
+By default on seed 000's surface (:data:`SEED000_SURFACE`): the highest point of each 0.2 m
+cell (the laser footprint, §2.3) minus the ground, gaps filled by ``mean8``, and tops strictly
+higher than their 8 neighbours (§4.5.1), so that the table reproduces Table 1's ordering:
+watershed without smoothing finds more trees than region growing without smoothing, and the
+more smoothing, the fewer trees."""
 from __future__ import annotations
 
 import numpy as np
@@ -11,6 +17,11 @@ from ..progress import SubProgress, as_progress, check_cancel
 from .chain import area_surfaces
 from .surfaces import SurfaceOptions
 from .trees import TreeParams, detect_trees
+
+#: seed 000's surface: highest point per 0.2 m cell (the footprint, §2.3) minus the ground
+#: (the seed's MDT "holds only the terrain's points": the class-2 points, else the lowest point
+#: per 5 m; the lowest point per 0.2 m cell, ``-dtm min``, is the canopy under a closed crown)
+SEED000_SURFACE = SurfaceOptions(res=0.2, chm="max")
 
 #: seed 000, Table 1: the ten configurations compared
 TABLE1 = (
@@ -49,12 +60,15 @@ def compare_rows(chm, spec, heights=None, *, min_height=2.0, step=0.1, strict=Fa
 
 
 def compare_run(input, output, *, surface: SurfaceOptions | None = None,
-                read: ReadOptions | None = None, min_height=2.0, step=0.1, strict=False,
+                read: ReadOptions | None = None, min_height=2.0, step=0.1, strict=True,
                 overwrite=False, progress=None) -> dict:
     """Seed 000's Table 1 on one input (points or a CHM GeoTIFF): a CSV and a Markdown table.
-    Tops are 8-neighbour maxima as in the seed (``strict=True``: strictly higher than all 8
-    neighbours, the seed's literal rule)."""
+
+    ``surface`` defaults to :data:`SEED000_SURFACE`. Tops are strictly higher than all 8
+    neighbours, the seed's literal rule (``strict=False``: one top per plateau of 8-neighbour
+    maxima, which makes region growing's tops the watershed's basins)."""
     check_outputs([(output, "OUTPUT")], (input,), overwrite)
+    surface = SEED000_SURFACE if surface is None else surface
     prog = as_progress(progress)
     s, plan, area = area_surfaces(input, surface=surface, read=read,
                                   progress=SubProgress(prog, 0, 0.3))

@@ -38,28 +38,29 @@ def _prepare(chm, rows, cols):
 
 # ---------------------------------------------------------------------------------------------
 # Seed 000, Annex 2: region growing after Hyyppä et al. (2001)
-def _rg_level(v, step):
-    """The lowest pass that can label a cell of height ``v``: the largest integer ``lev`` with
-    ``lev * step < v`` (computed as the passes compute their thresholds)."""
-    lev = int(np.ceil(v / step)) - 1
-    while lev * step >= v:
-        lev -= 1
-    while (lev + 1) * step < v:
-        lev += 1
-    return lev
+def _rg_pass(v, top, step):
+    """The first pass that can label a cell of height ``v``: the smallest ``k >= 1`` with
+    ``top - k * step < v`` (computed as the passes compute their thresholds)."""
+    k = max(1, int(np.floor((top - v) / step)) + 1)
+    while k > 1 and top - (k - 1) * step < v:
+        k -= 1
+    while top - k * step >= v:
+        k += 1
+    return k
 
 
-_rg_level_c = _jit(_rg_level)
+_rg_pass_c = _jit(_rg_pass)
 
 
-def _rg_kernel(chm, seeds_r, seeds_c, hmax, hmin, step, labels):
+def _rg_kernel(chm, seeds_r, seeds_c, top, hmin, step, labels):
     """Annex 2's passes over a FIFO queue, visiting in each pass only the queued cells that can
-    act in it. A queued cell acts in a pass when an unlabelled 4-neighbour is higher than the
-    pass's threshold; after its visit its unlabelled neighbours are all at or below it, so it
-    waits in the bucket of the pass that first goes below the highest of them (a neighbour
-    labelled meanwhile only makes that visit idle). The cells of a pass are visited in queue
-    order and the cells labelled in it join the end of the queue, as in Annex 2, so the labels
-    are those of visiting every queued cell in every pass."""
+    act in it. Pass ``k`` has the threshold ``top - k step``. A queued cell acts in a pass when
+    an unlabelled 4-neighbour is higher than the pass's threshold; after its visit its
+    unlabelled neighbours are all at or below it, so it waits in the bucket of the pass that
+    first goes below the highest of them (a neighbour labelled meanwhile only makes that visit
+    idle). The cells of a pass are visited in queue order and the cells labelled in it join the
+    end of the queue, as in Annex 2, so the labels are those of visiting every queued cell in
+    every pass."""
     H, W = chm.shape
     n = seeds_r.shape[0]
     cap = H * W + n + 1
@@ -69,43 +70,40 @@ def _rg_kernel(chm, seeds_r, seeds_c, hmax, hmin, step, labels):
     buf = np.empty(cap, np.int64)
     dr = np.array([-1, 1, 0, 0])
     dc = np.array([0, 0, -1, 1])
-    top = int(np.floor(hmax / step))
-    if top * step >= hmax:
-        top -= 1
-    low = top  # the last pass: the lowest threshold above hmin
-    while (low - 1) * step > hmin:
-        low -= 1
+    last = 0  # the last pass: the lowest threshold above hmin
+    while top - (last + 1) * step > hmin:
+        last += 1
     for i in range(n):  # every seed is visited in the first pass (any order: sorted there)
         labels[seeds_r[i], seeds_c[i]] = i + 1
         qr[i] = seeds_r[i]
         qc[i] = seeds_c[i]
         nxt[i] = i - 1
     tail = n
-    if top * step <= hmin:
+    if last < 1:
         return labels
-    head = np.full(top - low + 1, -1, np.int64)
-    head[top - low] = n - 1
-    for lev in range(top, low - 1, -1):
-        thr = lev * step
+    head = np.full(last + 1, -1, np.int64)
+    head[1] = n - 1
+    for k in range(1, last + 1):
+        thr = top - k * step
         cnt = 0
-        p = head[lev - low]
+        p = head[k]
         while p >= 0:
             buf[cnt] = p
             cnt += 1
             p = nxt[p]
-        head[lev - low] = -1
+        head[k] = -1
         if cnt > 1:
             buf[:cnt] = np.sort(buf[:cnt])
         start = tail
-        k = 0
+        j = 0
         while True:
-            if k < cnt:
-                p = buf[k]
-            elif start + (k - cnt) < tail:  # cells labelled in this pass, in queue order
-                p = start + (k - cnt)
+            if j < cnt:
+                p = buf[j]
+            elif start + (j - cnt) < tail:  # cells labelled in this pass, in queue order
+                p = start + (j - cnt)
             else:
                 break
-            k += 1
+            j += 1
             r = qr[p]
             c = qc[p]
             lab = labels[r, c]
@@ -124,27 +122,27 @@ def _rg_kernel(chm, seeds_r, seeds_c, hmax, hmin, step, labels):
                 elif v > wake:
                     wake = v
             if wake > hmin:  # can still be labelled, by a later pass
-                w = _rg_level_c(wake, step)
-                if w >= low:
-                    nxt[p] = head[w - low]
-                    head[w - low] = p
+                w = _rg_pass_c(wake, top, step)
+                if w <= last:
+                    nxt[p] = head[w]
+                    head[w] = p
     return labels
 
 
 _rg_nb = _jit(_rg_kernel)
 
 
-def region_growing(chm, rows, cols, *, step: float = 0.1, min_height: float = 2.0):
+def region_growing(chm, rows, cols, *, step: float = 0.1, min_height: float = 2.0, top=None):
     """Seeded region growing of seed 000 (Annex 2, after Hyyppä et al. 2001).
 
     A FIFO queue starts with the seeds (in the given order). A threshold starts at the highest
-    CHM value minus ``step`` and falls by ``step`` after each pass until it reaches
-    ``min_height``; the thresholds are the multiples of ``step`` (the first one is the highest
-    multiple below the maximum, less than ``step`` above Annex 2's start), so a tile and the
-    whole area grow the same crowns. In a pass every queued cell gives its label to its unlabelled 4-neighbours
-    higher than the threshold, which join the end of the queue (and are visited in the same
-    pass); a cell with no unlabelled neighbour that could still be labelled leaves the queue.
-    A small step (0.1 m) gives round crowns, a large one (2 m) ragged crowns.
+    height ``top`` minus ``step`` and falls by ``step`` after each pass while it is above
+    ``min_height``: the thresholds are ``top - k step`` (Annex 2's ``altura_max - ajuste``,
+    ``altura_max`` the highest value of the grid). In a pass every queued cell gives its label
+    to its unlabelled 4-neighbours higher than the threshold, which join the end of the queue
+    (and are visited in the same pass); a cell with no unlabelled neighbour that could still be
+    labelled leaves the queue. A small step (0.1 m) gives round crowns, a large one (2 m) ragged
+    crowns.
 
     Parameters
     ----------
@@ -156,13 +154,16 @@ def region_growing(chm, rows, cols, *, step: float = 0.1, min_height: float = 2.
         ``ajuste`` of Annex 2 (m).
     min_height : float
         Lowest height a crown may reach (m).
+    top : float, optional
+        ``altura_max`` (m): default the highest value of ``chm``; the tiles of an area take the
+        area's, so that a tile and the whole area grow the same crowns.
     """
     if not step > 0:
         raise InputError(f"-step must be > 0, got {step}")
     a, labels, rows, cols = _prepare(chm, rows, cols)
     if rows.size == 0:
         return labels
-    hmax = float(np.max(a[np.isfinite(a)]))
+    hmax = float(np.max(a[np.isfinite(a)])) if top is None else float(top)
     passes = (hmax - float(min_height)) / step
     if passes > 20_000:  # each pass scans the crowns' borders: bound the work
         raise InputError(f"-step: {step:g} m from the highest cell ({hmax:.1f} m) down to "

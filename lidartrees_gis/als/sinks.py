@@ -89,6 +89,16 @@ class TreesSummary(Tally):
             return ""
         return "{:.2f}x{:.2f}".format(*np.median(np.asarray(self.lattices), axis=0))
 
+    def tops_label(self, params) -> str:
+        """How the tops were found, and the trees the look at the planting positions added
+        (whose crowns were grown again, by a marker watershed for ``-method watershed``)."""
+        label = params.tops_finder if params.method != "watershed" else "watershed basins"
+        if self.gap_trees:
+            label += f" + {self.gap_trees} at empty planting positions"
+            if params.method == "watershed":
+                label += " (crowns grown again by a marker-controlled watershed)"
+        return label
+
     def row(self, params, plan, smooth: str) -> dict:
         """The summary layer's one row."""
         n, res = self.n, plan.res
@@ -99,7 +109,7 @@ class TreesSummary(Tally):
                "mean_height": mean_h, "sd_height": sd_h,
                "mean_crown_diameter": self.dsum / n if n else np.nan,
                "method": params.method, "smooth": smooth,
-               "tops": params.tops_finder if params.method != "watershed" else "watershed basins",
+               "tops": self.tops_label(params),
                "res": res, "crown_scale": plan.crown_scale, "dominant_height": plan.dominant_height,
                "tiles": len(plan.tiles),
                "tile_size": plan.tile_size if math.isfinite(plan.tile_size) else np.nan,

@@ -57,7 +57,7 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
     points), the empty planting positions are searched once more for a tree the tops finder
     missed (:func:`lidartrees_gis.als.stocking.gap_tops`); the crowns are then grown again from
     all tops and ``result["gap_trees"]`` says how many were added. Without a spacing
-    (``params.planting="auto"``), when the tops lie on a planting lattice
+    (:attr:`TreeParams.looks_for_lattice`), when the tops lie on a planting lattice
     (:func:`lidartrees_gis.als.stocking.detect_planting`; ``result["planting_detected"]`` gives
     its spacings), its empty positions get the same second look, without a stocking report.
     The cells of the added tops are ``result["gap_tops"]`` (rows, cols). ``within``: the box
@@ -68,7 +68,7 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
     result = detect_trees(arr, spec, params, heights=heights)
     check_cancel(progress)
     spacing, given, added, grid = params.spacing, params.spacing is not None, 0, None
-    if not given and params.planting == "auto" and returns is not None:
+    if not given and params.looks_for_lattice and returns is not None:
         t = result["table"]
         grid = detect_planting(t["x"], t["y"])
         if grid is not None:

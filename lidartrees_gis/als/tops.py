@@ -53,8 +53,8 @@ def local_maxima(chm, *, min_height: float = 2.0, strict: bool = False):
     A cell is a top when it is higher than all its 8 neighbours and at least ``min_height``.
     Flat tops: a plateau of equal cells whose every outside neighbour is lower counts as one
     maximum, represented by its cell nearest to the plateau's centroid (ties: smallest row, then
-    column). Cells on the grid border compare only with neighbours inside the grid. NaN cells
-    are never tops.
+    column). Cells on the grid border compare only with neighbours inside the grid (but with
+    ``strict``). NaN cells are never tops.
 
     Parameters
     ----------
@@ -63,7 +63,8 @@ def local_maxima(chm, *, min_height: float = 2.0, strict: bool = False):
         Minimum tree height (m), 2 m in seed 000.
     strict : bool
         Castro's literal rule: a top must be strictly higher than all 8 neighbours, so a flat
-        top (two or more equal highest cells) gives no top at all.
+        top (two or more equal highest cells) gives no top at all, and a cell on the grid's
+        border, which lacks neighbours, is no top.
 
     Returns
     -------
@@ -85,6 +86,7 @@ def local_maxima(chm, *, min_height: float = 2.0, strict: bool = False):
         fp[1, 1] = False
         nb = ndimage.maximum_filter(a, footprint=fp, mode="constant", cval=-np.inf)
         keep = np.isfinite(a) & (a > nb) & (a >= min_height)
+        keep[0, :] = keep[-1, :] = keep[:, 0] = keep[:, -1] = False  # 8 neighbours to beat
         r, c = np.nonzero(keep)
         return r.astype(np.int64), c.astype(np.int64)
     reg = _lm(a, connectivity=2, allow_borders=True)
@@ -93,20 +95,23 @@ def local_maxima(chm, *, min_height: float = 2.0, strict: bool = False):
 
 
 def treex_maxima(chm, res: float, *, mean_crown_area: float, sd_crown_area: float,
-                 min_height: float = 2.0, centred: bool = False):
+                 min_height: float = 2.0, centred: bool = False, local: bool = False):
     """TreeX tree tops (seed 001): a search window moved over the CHM.
 
     Reading of "a window with dimension equivalent to the mean crown area, moved by the crown-area
     standard deviation": the window is the square whose *area* equals ``mean_crown_area`` (side
     ``round(sqrt(mean_crown_area) / res)`` cells, at least 1), and it moves by the side of the
     square whose area equals ``sd_crown_area`` (``round(sqrt(sd_crown_area) / res)`` cells, at
-    least 1). The highest cell of each window position is a candidate (first in row order on
-    ties) and is kept when it is at least ``min_height`` and a local maximum of its 8
-    neighbours (a window cut across a crown's edge is otherwise won by a slope cell). As the seed
-    says, nothing else is asked: two trees 2 m apart in one window position are both found by
-    the neighbouring positions. ``centred=True`` adds a stricter test (the candidate must also be
-    the highest of the same-size window centred on it), which drops one of two close trees.
-    One top per plateau as in :func:`local_maxima`.
+    least 1). The highest cell of each window position (first in row order on ties) is a tree
+    top when it is at least ``min_height``: the seed asks nothing else, so a window cut across a
+    crown's flank is won by a flank cell, the source of TreeX's overestimate (about +7 % in the
+    seed). Candidates that touch (8-connected) are one top, as one per plateau in
+    :func:`local_maxima`.
+
+    Two tests not in the seed are options: ``local=True`` keeps a candidate only when it is a
+    local maximum of its 8 neighbours (drops the flank cells, and a tree that loses every window
+    to a taller neighbour in its row); ``centred=True`` keeps it only when it is the highest of
+    the same-size window centred on it (drops one of two close trees).
     """
     if not (mean_crown_area > 0 and sd_crown_area > 0):
         raise InputError("-mean_crown_area and -sd_crown_area must be > 0 (m²)")
@@ -126,9 +131,10 @@ def treex_maxima(chm, res: float, *, mean_crown_area: float, sd_crown_area: floa
         rr = r0 + k // w
         cc = np.arange(0, W, step) + k % w
         cand[rr[ok], cc[ok]] = True
-    size = w if centred else 3
-    around = ndimage.maximum_filter(a, size=size, mode="constant", cval=-np.inf)
-    keep = cand & (a >= around) & (a >= min_height) & np.isfinite(a)
+    keep = cand & (a >= min_height) & np.isfinite(a)
+    for on, size in ((local, 3), (centred, w)):
+        if on:
+            keep &= a >= ndimage.maximum_filter(a, size=size, mode="constant", cval=-np.inf)
     return _one_per_component(keep, a)
 
 

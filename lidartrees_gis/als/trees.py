@@ -98,11 +98,20 @@ class TreeParams:
     treex_centred : bool
         TreeX: also require a top to be the highest of the window centred on it (drops one of
         two close trees; off as in the seed).
-    planting : {"auto", "none"}
+    treex_local : bool
+        TreeX: also require a top to be a local maximum of its 8 neighbours (drops flank cells
+        and trees that lose every window to a taller neighbour; off as in the seed).
+    top_height : float, optional
+        Region growing's ``altura_max`` (seed 000 Annex 2): the thresholds are ``top_height -
+        k step``. Default the highest value of the smoothed CHM (as Annex 2); the tiles of an
+        area take the area's (measured once by the plan).
+    planting : {"auto", "none"}, optional
         Without ``spacing``: ``auto`` looks for a planting lattice under the tops
         (:func:`lidartrees_gis.als.stocking.detect_planting`) and, when there is one, looks again
-        at its empty positions for trees the tops finder missed (in tiled runs, each tile on
-        its own); ``none`` does not.
+        at its empty positions for trees the tops finder missed (each tile on its own, with its
+        buffer); ``none`` does not. Default (None): ``auto`` for the default method
+        (:attr:`default_method`), ``none`` with a seed method or configuration, which then
+        runs as its paper defines it.
     """
 
     method: str = "rg"
@@ -119,9 +128,11 @@ class TreeParams:
     crown_scale: float | None = None
     window_factor: float = 0.9
     treex_centred: bool = False
+    treex_local: bool = False
     dominant_height: float | None = None
     min_separation: float | None = None
-    planting: str = "auto"
+    top_height: float | None = None
+    planting: str | None = None
 
     def __post_init__(self):
         if self.method not in METHODS:
@@ -141,7 +152,7 @@ class TreeParams:
         if self.min_separation is not None and not (np.isfinite(self.min_separation)
                                                     and self.min_separation >= 0):
             raise InputError(f"-min_separation must be >= 0 (m), got {self.min_separation}")
-        if self.planting not in ("auto", "none"):
+        if self.planting not in (None, "auto", "none"):
             raise InputError(f"-planting: expected auto or none, got {self.planting!r}")
         if not (np.isfinite(self.step) and self.step > 0):
             raise InputError(f"-step must be > 0 (m), got {self.step}")
@@ -154,8 +165,22 @@ class TreeParams:
     @property
     def looks_at_planting(self) -> bool:
         """Whether the trees get a second look at the empty planting positions (``spacing``
-        given, or ``planting="auto"``): it needs the highest return of each cell."""
-        return self.spacing is not None or self.planting == "auto"
+        given, or :attr:`looks_for_lattice`): it needs the highest return of each cell."""
+        return self.spacing is not None or self.looks_for_lattice
+
+    @property
+    def default_method(self) -> bool:
+        """The defaults' method: region growing after the adaptive window on ``-smooth auto``
+        (not one of the seeds' configurations)."""
+        return self.method == "rg" and self.smooth == "auto" and self.tops in ("auto", "aw")
+
+    @property
+    def looks_for_lattice(self) -> bool:
+        """Without ``spacing``: whether the tops' planting lattice is looked for (``planting``,
+        by default only with the :attr:`default_method`)."""
+        if self.planting is not None:
+            return self.planting == "auto"
+        return self.default_method
 
     @property
     def tops_finder(self) -> str:
@@ -211,7 +236,7 @@ def find_tops(chm_s, res, p: TreeParams, auto: dict | None = None):
     if which == "treex":
         return treex_maxima(chm_s, res, mean_crown_area=p.mean_crown_area,
                             sd_crown_area=p.sd_crown_area, min_height=p.min_height,
-                            centred=p.treex_centred)
+                            centred=p.treex_centred, local=p.treex_local)
     if which == "vwf":
         return variable_window_maxima(chm_s, res, min_height=p.min_height)
     if which == "aw":
@@ -318,7 +343,8 @@ def detect_trees(chm, spec: GridSpec, params: TreeParams | None = None, *, heigh
 def _grow(chm_s, rows, cols, res: float, p: TreeParams):
     """Crowns grown from the tops by ``p.method`` (region growing, TreeX, else marker watershed)."""
     if p.method == "rg":
-        return region_growing(chm_s, rows, cols, step=p.step, min_height=p.min_height)
+        return region_growing(chm_s, rows, cols, step=p.step, min_height=p.min_height,
+                              top=p.top_height)
     if p.method == "treex":
         return treex_growing(chm_s, rows, cols, res, max_crown_area=p.max_crown_area,
                              min_crown_height=p.min_crown_height, connectivity=p.connectivity)

@@ -74,8 +74,9 @@ def _tree_params(kw):
     vals.update({n: _number(kw, n) for n in numbers if kw.get(n) is not None})
     if kw.get("connectivity") is not None:
         vals["connectivity"] = _number(kw, "connectivity", int)
-    if kw.get("treex_centred") is not None:
-        vals["treex_centred"] = bool(kw["treex_centred"])
+    for key in ("treex_centred", "treex_local"):
+        if kw.get(key) is not None:
+            vals[key] = bool(kw[key])
     return TreeParams(**vals)
 
 
@@ -127,7 +128,8 @@ def trees(input, output, **kw):
 def compare(input, output, **kw):
     from ..als.compare import compare_run
 
-    r = compare_run(input, output, surface=_surface(kw), read=_read(kw), strict=bool(kw.get("strict")),
+    r = compare_run(input, output, surface=_surface(kw), read=_read(kw),
+                    strict=(kw.get("tops") or "strict") == "strict",
                     min_height=_number(kw, "min_height") or 2.0, step=_number(kw, "step") or 0.1,
                     overwrite=bool(kw.get("overwrite")), progress=kw.get("progress"))
     return {"output": r["output"], "reprojection": r.get("reprojection"), "table": r["table"]}

@@ -72,7 +72,9 @@ SKIP_INVALID = Param("skip_invalid", "bool", "Skip malformed XYZ lines and repor
 RES = Param("res", "res", "Cell size in metres, or auto = sqrt(1/n) from the point density n "
             "(Leite et al.)", flag="-tr", aliases=("--resolution",), default="auto", unit="m")
 FILL = Param("fill", "choice", "Gap filling: mean8 = empty cells take the mean of their filled "
-             "8-neighbours, repeated until none is empty (Castro 2006); none = leave nodata",
+             "8-neighbours, repeated until none is left (Castro 2006); chm and trees fill only "
+             "the data's footprint, the cells within 2 m (or 3 point spacings) of a return, and "
+             "leave nodata beyond it; none = leave nodata",
              flag="-fill", choices=("mean8", "none"), default="mean8")
 CO = Param("creation_options", "kv", "GDAL creation option KEY=VALUE for GeoTIFF outputs "
            "(repeatable)", flag="-co", advanced=True)
@@ -102,9 +104,11 @@ KP_PARAMS = (
     Param("refine", "float", "Densification passes against the TIN of the ground points (stops "
           "when nothing changes); 0 = the plain robust-interpolation result", flag="-refine",
           default=10, advanced=True),
-    Param("tolerance", "float", "One-sided tolerance above the surface (FUSION /tolerance): "
-          "ground = residual <= tolerance (+ slope term when refining); default 0.3 m when "
-          "refining, else residual <= g + w", flag="-tolerance", advanced=True, unit="m"),
+    Param("tolerance", "float", "Tolerance above the surface (FUSION /tolerance): when "
+          "refining, a point is ground when -(1 + slope S) <= residual <= tolerance + slope S "
+          "(S the TIN's slope; default 0.3 m); without refining, ground = residual <= "
+          "tolerance when given, else residual <= g + w", flag="-tolerance", advanced=True,
+          unit="m"),
     Param("slope", "float", "Tolerance added per unit of terrain slope (m/m) when refining",
           flag="-slope", default=1.25, advanced=True),
     Param("tin_cell", "float", "When refining, the TIN is built from the lowest ground point per "
@@ -194,7 +198,8 @@ COMMANDS = {
                "output", flag="-spacing"),
          Param("tops", "choice", "Tree tops: aw = adaptive window (crown scale x height); lm = "
                "8-neighbour maxima, one per plateau (Castro 2006); strict = strictly higher than "
-               "all 8 neighbours (Castro's literal rule); treex = TreeX window; vwf = window "
+               "all 8 neighbours, grid-border cells excluded (Castro's literal rule); treex = "
+               "TreeX window; vwf = window "
                "0.1 h + 0.5 m; auto = treex for -method treex, aw with -smooth auto, else lm",
                flag="-tops", choices=("auto", "aw", "lm", "strict", "treex", "vwf"),
                default="auto", advanced=True),
@@ -209,8 +214,10 @@ COMMANDS = {
                flag="-min_separation", advanced=True, unit="m"),
          Param("planting", "choice", "Without -spacing: auto = when the tops lie on a planting "
                "lattice (at least 100 trees, lattice fit >= 0.25), look again at its empty "
-               "positions for trees the tops finder missed (tiled runs: each tile); none = off",
-               flag="-planting", choices=("auto", "none"), default="auto", advanced=True),
+               "positions for trees the tops finder missed (each tile with its buffer); none = "
+               "off. Default: auto with the default method (rg, -smooth auto, -tops auto), none "
+               "with a seed method or configuration, which then runs as its paper defines it",
+               flag="-planting", choices=("auto", "none"), default=None, advanced=True),
          Param("step", "float", "Region-growing threshold step (ajuste, Castro 2006, Annex 2)",
                flag="-step", default=0.1, advanced=True, unit="m"),
          Param("mean_crown_area", "float", "TreeX window: mean crown area", flag="-mean_crown_area",
@@ -226,6 +233,10 @@ COMMANDS = {
          Param("treex_centred", "bool", "TreeX: also require each top to be the highest of the "
                "window centred on it (drops one of two close trees; not in the seed)",
                flag="-treex_centred", default=False, advanced=True),
+         Param("treex_local", "bool", "TreeX: also require each top to be a local maximum of its "
+               "8 neighbours (drops crown-flank tops, and trees that lose every window to a "
+               "taller neighbour; not in the seed)", flag="-treex_local", default=False,
+               advanced=True),
          Param("dtm", "str", "DTM for points input (see chm); default auto = class-2 ground "
                "points if any, else lowest:5", flag="-dtm", default="auto", advanced=True),
          Param("chm", "choice", CHM_KIND.help, flag="-chm", choices=CHM_KIND.choices,
@@ -237,7 +248,8 @@ COMMANDS = {
                flag="-nln", advanced=True),
          Param("layer_options", "kv", "GeoPackage layer creation option KEY=VALUE", flag="-lco",
                advanced=True),
-         Param("png", "output", "Also write a quick-look PNG (equalised CHM, crowns, tops)",
+         Param("png", "output", "Also write a quick-look PNG (the CHM in height classes with a "
+               "legend, crown outlines, tops, coordinates, scale bar, the summary as title)",
                flag="-png", advanced=True),
          Param("csv", "output", "Also write a CSV in TreeX's layout", flag="-csv", advanced=True),
          Param("chm_out", "output", "Also write the CHM GeoTIFF", flag="-chm_out", advanced=True),
@@ -248,17 +260,24 @@ COMMANDS = {
         "compare", "Trees", "Castro (2006) Table 1: ten smoothing/segmentation configurations compared",
         (Param("input", "input", "Point file (LAS/LAZ, XYZ) or a CHM GeoTIFF"),
          Param("output", "output", "Output CSV"),
-         CHM_RES,
+         Param("res", "res", "CHM cell size, m (Castro 2006: 0.2 m, the laser footprint), or "
+               "auto = max(sqrt(1/n), 0.25) from the point density n", flag="-tr",
+               aliases=("--resolution",), default=0.2, unit="m"),
          Param("min_height", "float", "Minimum tree height", flag="-min_height", default=2.0,
                unit="m"),
          Param("step", "float", "Region-growing threshold step", flag="-step", default=0.1,
                advanced=True, unit="m"),
-         Param("strict", "bool", "Tops strictly higher than all 8 neighbours (Castro's literal "
-               "rule: a flat top gives none)", flag="-strict", default=False),
-         Param("dtm", "str", "DTM for points input (see chm)", flag="-dtm", default="auto",
-               advanced=True),
-         Param("chm", "choice", CHM_KIND.help, flag="-chm", choices=CHM_KIND.choices,
-               default="pitfree", advanced=True),
+         Param("tops", "choice", "Tree tops: strict = strictly higher than all 8 neighbours, a "
+               "flat top or a cell on the grid's border (which lacks neighbours) giving none "
+               "(Castro's rule); lm = one top per plateau of 8-neighbour maxima (then region "
+               "growing starts from the watershed's basins)", flag="-tops",
+               choices=("strict", "lm"), default="strict"),
+         Param("dtm", "str", "DTM for points input (see chm); auto = class-2 ground points if "
+               "any, else lowest:5 (Castro's DTM holds only ground points; -dtm min, the lowest "
+               "point per cell, is the canopy where a cell holds one return)", flag="-dtm",
+               default="auto", advanced=True),
+         Param("chm", "choice", CHM_KIND.help + " (here default max, Castro's surface)",
+               flag="-chm", choices=CHM_KIND.choices, default="max"),
          *CLASSES,
          Param("fill", "choice", FILL.help, flag="-fill", choices=("mean8", "none"),
                default="mean8", advanced=True),
