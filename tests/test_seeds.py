@@ -165,7 +165,7 @@ def test_help_says_what_the_code_does():
 
     assert "equalised" not in helptext("trees", "-png") and "classes" in helptext("trees", "-png")
     assert "footprint" in helptext("chm", "-fill")
-    assert "border" in helptext("compare", "-strict")
+    assert "border" in helptext("compare", "-tops") and "border" in helptext("trees", "-tops")
     assert "one-sided" not in helptext("ground", "-tolerance").lower()
     assert "-(1 + slope" in helptext("ground", "-tolerance")
 

@@ -2,6 +2,8 @@ import json
 
 import laspy
 import numpy as np
+
+from lidartrees_gis.errors import InputError
 import pytest
 from scipy.stats import norm
 
@@ -87,21 +89,29 @@ def _profile_cloud(with_roots=True):
 
 
 def test_profile_boundaries_within_one_bin():
-    r = segment_profile(_profile_cloud(), bin=0.05, sigma=0.3)
-    # inflections of the smoothed bumps: mu +- sqrt(sigma_bump^2 + sigma^2)
+    r = segment_profile(_profile_cloud(), bin=0.05, sigma=0.3, rule="queiroz")
+    # inflections of the smoothed bumps: mu +- sqrt(sigma_bump^2 + sigma^2); the ordinal rule:
+    # the root bump's lower and upper ones, then the canopy bump's lower one
     assert r["has_roots"]
+    assert r["tree_start"] == pytest.approx(0.5 - np.hypot(0.25, 0.3), abs=0.05)
     assert r["stem_start"] == pytest.approx(0.5 + np.hypot(0.25, 0.3), abs=0.05)
     assert r["canopy_start"] == pytest.approx(6 - np.hypot(1.0, 0.3), abs=0.05)
     assert r["counts"]["roots"] > 0 and r["counts"]["canopy"] > r["counts"]["stem"]
 
 
-def test_profile_without_root_zone_still_places_canopy():
+def test_profile_without_root_zone_places_canopy_where_branches_begin():
+    """The seed's Avicennia: no prop roots; the canopy starts where the branches do (5 m here),
+    found by the spread rule without a root zone."""
     z = _profile_cloud(with_roots=False)
     z = np.concatenate([z, np.linspace(0, 0.4, 30000)])  # dense litter at the ground, no roots
-    r = segment_profile(z)
+    ang = np.random.default_rng(0).uniform(0, 2 * np.pi, z.size)
+    rad = np.where(z > 5.0, 1.5 * np.sqrt((np.arange(z.size) % 97) / 96), 0.1)
+    r = segment_profile(z, x=rad * np.cos(ang), y=rad * np.sin(ang))
     assert not r["has_roots"] and any("no root zone" in n for n in r["notes"])
-    assert r["canopy_start"] == pytest.approx(6 - np.hypot(1.0, 0.3), abs=0.1)
+    assert r["canopy_start"] == pytest.approx(5.0, abs=0.3)
     assert r["counts"]["roots"] == 0
+    with pytest.raises(InputError, match="x and y"):
+        segment_profile(z)
 
 
 @pytest.mark.realdata
@@ -147,5 +157,5 @@ def test_real_trees_plausible(data, name):
         assert 0.05 < r["dbh"] < 1.0
     else:
         assert r["message"]
-    prof = segment_profile(p.z)
+    prof = segment_profile(p.z, x=p.x, y=p.y)
     assert prof["stem_start"] is None or 0 <= prof["stem_start"] < prof["canopy_start"] <= prof["top"]

@@ -169,7 +169,8 @@ def profile(input, output, **kw):
     from ..tls.chain import profile_file
 
     return profile_file(input, output, bin=_number(kw, "bin") or 0.05,
-                        sigma=_number(kw, "sigma") or 0.3, read=_read(kw),
+                        sigma=_number(kw, "sigma") or 0.3, rule=kw.get("rule") or "spread",
+                        read=_read(kw),
                         overwrite=bool(kw.get("overwrite")), progress=kw.get("progress"))
 
 

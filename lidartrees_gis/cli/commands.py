@@ -320,7 +320,9 @@ COMMANDS = {
                flag="-search", default=0.5, unit="m"),
          Param("hspacing", "float", "Horizontal point spacing of the scan (sets the search-point "
                "step)", flag="-hspacing", default=0.005, advanced=True, unit="m"),
-         Param("vspacing", "float", "Vertical point spacing of the scan", flag="-vspacing",
+         Param("vspacing", "float", "Vertical point spacing of the scan: a complete section holds "
+               "2 pi r / hspacing x section / vspacing points (expected_points, completeness "
+               "in the sections CSV); -section must be at least this", flag="-vspacing",
                default=0.010, advanced=True, unit="m"),
          Param("base", "str", "Base height: auto (local ground) or a z value", flag="-base",
                default="auto", advanced=True),
@@ -336,6 +338,11 @@ COMMANDS = {
          Param("bin", "float", "Slice height", flag="-bin", default=0.05, unit="m"),
          Param("sigma", "float", "Gaussian smoothing sigma (0.1, 0.3, 0.6 tested; 0.3 best)",
                flag="-sigma", default=0.3, unit="m"),
+         Param("rule", "choice", "Boundaries: spread = stem start at the density profile's "
+               "first concave-to-convex inflection, canopy start where the horizontal spread "
+               "leaves the stem's (3x and 0.25 m more, over a metre); queiroz = Queiroz's "
+               "ordinal rule, the 1st, 2nd and 3rd inflections are tree, stem and canopy start",
+               flag="-rule", choices=("spread", "queiroz"), default="spread"),
          *READ, OVERWRITE), "profile", outputs=("output",)),
     "evaluate": Command(
         "evaluate", "Trees", "Accuracy of tree tops against reference trees (Eysn et al. 2015 "

@@ -41,7 +41,7 @@ def stem_file(input, prefix, *, params=None, read: ReadOptions | None = None, ov
     write_points(paths["trunk"], pts.x[ti], pts.y[ti], pts.z[ti], crs=src.crs,
                  extra={"section": r["trunk_section"].astype(np.uint32)}, overwrite=overwrite)
     cols = ["section", "z", "xc", "yc", "r", "diameter", "s", "points_in", "points_kept",
-            "selected", "repeated", "coverage", "converged"]
+            "selected", "repeated", "coverage", "expected_points", "completeness", "converged"]
     with atomic_output(paths["csv"], overwrite) as tmp:
         with open(tmp, "w", encoding="utf-8") as fh:
             fh.write(",".join(cols) + "\n")
@@ -62,7 +62,9 @@ def stem_file(input, prefix, *, params=None, read: ReadOptions | None = None, ov
                "reached_height": r["reached_height"], "reached_percent": r["reached_percent"],
                "dbh_m": None if np.isnan(r["dbh"]) else r["dbh"],
                "dbh_cm": None if np.isnan(r["dbh"]) else 100 * r["dbh"],
-               "sections_converged": len(conv), "message": r["message"], "params": r["params"]}
+               "dbh_outline_cm": None if np.isnan(r["dbh_outline"]) else 100 * r["dbh_outline"],
+               "sections_converged": len(conv), "message": r["message"],
+               "warning": r["warning"], "params": r["params"]}
     with atomic_output(paths["summary"], overwrite) as tmp:
         tmp.write_text(json.dumps(summary, indent=2))
 
@@ -73,6 +75,9 @@ def stem_file(input, prefix, *, params=None, read: ReadOptions | None = None, ov
         if summary["dbh_cm"]:
             ax.axhline(1.3, color="grey", lw=0.8, ls="--")
             ax.plot([summary["dbh_cm"]], [1.3], "r*", ms=10, label=f"DBH {summary['dbh_cm']:.1f} cm")
+        if summary["dbh_outline_cm"]:
+            ax.plot([summary["dbh_outline_cm"]], [1.3], "k^", ms=6,
+                    label=f"outline (tape) {summary['dbh_outline_cm']:.1f} cm")
         ax.set_xlabel("diameter (cm)")
         ax.set_ylabel("height above base (m)")
         ax.set_ylim(0, max(r["tree_height"], 1.5))
@@ -83,14 +88,16 @@ def stem_file(input, prefix, *, params=None, read: ReadOptions | None = None, ov
     plot_png(paths["png"], draw, size=(5, 7), overwrite=overwrite)
     prog.update(1.0, "done")
     return {**{k: str(v) for k, v in paths.items()},
-            **{k: summary[k] for k in ("dbh_cm", "tree_height", "reached_height", "reached_percent",
-                                       "sections_converged", "trunk_points", "message")},
+            **{k: summary[k] for k in ("dbh_cm", "dbh_outline_cm", "tree_height",
+                                       "reached_height", "reached_percent", "sections_converged",
+                                       "trunk_points", "message", "warning")},
             "reprojection": repro_report(src)}
 
 
-def profile_file(input, output, *, bin=0.05, sigma=0.3,  # noqa: A002
+def profile_file(input, output, *, bin=0.05, sigma=0.3, rule="spread",  # noqa: A002
                  read: ReadOptions | None = None, overwrite=False, progress=None) -> dict:
-    """Roots / stem / canopy segmentation (seed 002): OUTPUT LAS/LAZ with an extra dimension
+    """Roots / stem / canopy segmentation (seed 002; ``rule`` see
+    :func:`lidartrees_gis.tls.profile.segment_profile`): OUTPUT LAS/LAZ with an extra dimension
     ``part`` (1 roots, 2 stem, 3 canopy) and classification 1, plus ``OUTPUT_boundaries.json``,
     ``OUTPUT_boundaries.csv`` and ``OUTPUT_profile.png``."""
     import json
@@ -108,13 +115,13 @@ def profile_file(input, output, *, bin=0.05, sigma=0.3,  # noqa: A002
     prog = as_progress(progress)
     src = (read or ReadOptions()).open(input, filtered=False)
     pts = src.read_all(SubProgress(prog, 0, 0.5))
-    r = segment_profile(pts.z, bin=bin, sigma=sigma)
+    r = segment_profile(pts.z, bin=bin, sigma=sigma, rule=rule, x=pts.x, y=pts.y)
     check_cancel(prog)
     write_points(out, pts.x, pts.y, pts.z, crs=src.crs, classification=np.ones(len(pts), np.uint8),
                  extra={"part": r["labels"]}, overwrite=overwrite)
     info = {k: r[k] for k in ("tree_start", "stem_start", "canopy_start", "top", "has_roots",
                               "notes", "counts")}
-    info.update({"z_min": float(pts.z.min()), "bin": bin, "sigma": sigma,
+    info.update({"z_min": float(pts.z.min()), "bin": bin, "sigma": sigma, "rule": rule,
                  "crossings": [{"z": z, "direction": "-to+" if d > 0 else "+to-"} for z, d in r["crossings"]]})
     with atomic_output(paths["json"], overwrite) as tmp:
         tmp.write_text(json.dumps(info, indent=2))

@@ -20,6 +20,16 @@ For each horizontal section of ``section`` metres from the base:
    rejected section keeps the previous circle, and the trunk ends after ``max_gap`` rejected
    sections in a row (whorls, occlusion).
 
+At 1.30 m the section's outline is measured too (:func:`outline_diameter`: the girth a tape
+follows, the convex hull's perimeter / pi); when it is more than :data:`BUTTRESS_RATIO` times the
+fitted circle's diameter, the section is not round (buttresses, flutes, a fork) and the result
+says so: the Dmax circle then fits the inner core.
+
+The scan's spacings set the search points (``hspacing``) and the points a complete section
+holds, ``2 pi r / hspacing x section / vspacing`` (``expected_points`` per section, and its
+``completeness``); a section thinner than ``vspacing`` holds at most one scan line and is
+refused.
+
 Sections start ``start`` metres above the base (0.5 m: below it, ground, litter and root
 collars spoil the circles). The base (``auto``) is the 0.1th percentile of the heights within the search square around the
 stem, i.e. the local ground.
@@ -56,6 +66,10 @@ class DmaxParams:
         for name in ("section", "search", "hspacing", "vspacing"):
             if not getattr(self, name) > 0:
                 raise InputError(f"-{name} must be > 0 m, got {getattr(self, name)}")
+        if self.section < self.vspacing:
+            raise InputError(f"-section {self.section:g} m is thinner than the scan's vertical "
+                             f"spacing -vspacing {self.vspacing:g} m: a section would hold at "
+                             "most one scan line")
 
     def as_dict(self):
         return asdict(self)
@@ -90,6 +104,38 @@ def dmax_loop(x, y, circ: Circle, max_iter=50):
         s_prev = c.s
     d = np.hypot(x - c.xc, y - c.yc)
     return d < c.r + 2.0 * max(c.s, 1e-4), c
+
+
+#: outline (tape) diameter over the fitted circle's above which 1.30 m is not round
+BUTTRESS_RATIO = 1.15
+
+
+def outline_diameter(x, y, centre, search: float, sectors: int = 36) -> float:
+    """Diameter a girth tape gives, robust to scan noise and strays: the section's points
+    within ``search`` of ``centre`` (a square, the filter's search region) in ``sectors``
+    angular sectors around the centre; in each sector of 3 points or more, the median distance
+    to the centre; the perimeter of the convex hull of those sector points, over pi. A round
+    stem gives its diameter; buttresses, flutes or a fork a larger one. NaN with fewer than 3
+    sectors."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    m = (np.abs(x - centre[0]) <= search) & (np.abs(y - centre[1]) <= search)
+    dx, dy = x[m] - centre[0], y[m] - centre[1]
+    d = np.hypot(dx, dy)
+    k = np.minimum(((np.arctan2(dy, dx) + np.pi) / (2 * np.pi) * sectors).astype(int), sectors - 1)
+    pts = []
+    for i in range(sectors):
+        di = d[k == i]
+        if di.size >= 3:
+            a = -np.pi + (i + 0.5) * 2 * np.pi / sectors
+            pts.append((np.median(di) * np.cos(a), np.median(di) * np.sin(a)))
+    if len(pts) < 3:
+        return float("nan")
+    try:
+        return float(ConvexHull(np.asarray(pts)).area / np.pi)  # 2-D "area" is the perimeter
+    except QhullError:
+        return float("nan")
 
 
 def _stem_centre(x, y, z, p: DmaxParams) -> tuple:
@@ -187,8 +233,11 @@ def dmax_filter(x, y, z, params: DmaxParams | None = None, *, centre=None, progr
         if idx.size >= p.min_points:
             keep, c, ok = _fit_section(x[idx], y[idx], cur, p, row)
         if c is not None:
+            expected = 2 * np.pi * c.r / p.hspacing * max(1.0, p.section / p.vspacing)
             row.update(xc=c.xc, yc=c.yc, r=c.r, diameter=c.diameter, s=c.s, coverage=c.coverage,
-                       points_kept=int(keep.sum()), converged=ok)
+                       points_kept=int(keep.sum()), converged=ok,
+                       expected_points=int(round(expected)),
+                       completeness=min(1.0, keep.sum() / max(expected, 1.0)))
         rows.append(row)
         if ok:
             trunk_idx.append(idx[keep])
@@ -206,8 +255,19 @@ def dmax_filter(x, y, z, params: DmaxParams | None = None, *, centre=None, progr
     msg = "" if conv else "no stem section could be fitted (check -base, -search and the input)"
     if conv and not np.isfinite(dbh):
         msg = "the trunk filter did not reach 1.30 m with at least two sections; no DBH"
+    outline, warning = float("nan"), ""
+    if np.isfinite(dbh):
+        at = [r for r in conv if abs(r["z"] - 1.30) <= 0.10]
+        ctr = (float(np.median([r["xc"] for r in at])), float(np.median([r["yc"] for r in at])))
+        slab = np.abs(zz - 1.30) <= 0.05
+        outline = outline_diameter(x[slab], y[slab], ctr, p.search)
+        if outline > BUTTRESS_RATIO * dbh:
+            warning = (f"the section at 1.30 m is not round (buttresses, flutes or a fork?): "
+                       f"its outline gives {100 * outline:.1f} cm (a girth tape), the Dmax "
+                       f"circle {100 * dbh:.1f} cm (the inner core); measure above the "
+                       "irregular part")
     return {"sections": rows, "trunk_index": np.concatenate(trunk_idx) if trunk_idx else np.empty(0, np.int64),
             "trunk_section": np.concatenate(trunk_sec) if trunk_sec else np.empty(0, np.int64),
             "base": base, "tree_height": height, "reached_height": reached,
             "reached_percent": 100.0 * reached / height if height > 0 else 0.0, "dbh": dbh,
-            "message": msg, "params": p.as_dict()}
+            "dbh_outline": outline, "warning": warning, "message": msg, "params": p.as_dict()}
