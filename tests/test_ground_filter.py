@@ -121,24 +121,23 @@ def test_plain_filter_with_g_equals_minus_w_sinks():
     assert (ground & ref).sum() / ref.sum() < 0.2
 
 
-def test_cluster_roles_follow_seed_table_2():
+def test_cluster_roles_smoothest_is_good():
     names = [f"{k}_{a}" for k in ("contrast", "homogeneity", "dissimilarity") for a in (0, 45, 90, 135)]
     rng = np.random.default_rng(0)
-    rows, labels, npts = [], [], []
-    # cluster 0: noisy (high contrast, middle homogeneity/dissimilarity), 1: good (highest
-    # homogeneity and dissimilarity), 2: incomplete (lowest of both, few ground points)
-    spec = {0: (9.0, 5.5, 5.5, 900), 1: (2.0, 11.3, 11.3, 1000), 2: (1.0, 3.5, 3.5, 10)}
-    for c, (con, hom, dis, n) in spec.items():
+    rows, labels = [], []
+    # cluster 0: spiky (high contrast and dissimilarity, low homogeneity), 1: smooth (highest
+    # homogeneity), 2: in between
+    spec = {0: (9.0, 0.4, 11.3), 1: (0.8, 0.7, 3.0), 2: (4.0, 0.5, 5.5)}
+    for c, (con, hom, dis) in spec.items():
         for _ in range(5):
-            rows.append([con] * 4 + [hom] * 4 + [dis] * 4 + rng.normal(0, 0.1, 12))
+            rows.append([con] * 4 + [hom] * 4 + [dis] * 4 + rng.normal(0, 0.01, 12))
             labels.append(c)
-            npts.append(n)
-    roles = cluster_roles(np.array(rows), names, labels, npts)
-    assert roles == {0: "noisy", 1: "good", 2: "incomplete"}
+    roles = cluster_roles(np.array(rows), names, labels)
+    assert roles == {0: "noisy", 1: "good", 2: "noisy"}
     # renumbered clusters get the same roles
     perm = {0: 2, 1: 0, 2: 1}
-    roles2 = cluster_roles(np.array(rows), names, [perm[c] for c in labels], npts)
-    assert roles2 == {2: "noisy", 0: "good", 1: "incomplete"}
+    roles2 = cluster_roles(np.array(rows), names, [perm[c] for c in labels])
+    assert roles2 == {2: "noisy", 0: "good", 1: "noisy"}
 
 
 def test_vendor_classes_are_kept_unless_reclassify():

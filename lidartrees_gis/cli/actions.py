@@ -148,7 +148,10 @@ def dtm_quality(input, outdir, **kw):
 
     return dtm_quality_file(input, outdir, g=kw.get("g") or "-4:1:0.5",
                             w=kw.get("w") or "1:4:0.5", res=kw.get("res") or "auto",
-                            params=_kp_params(kw), seed=_number(kw, "seed", int) or 0,
+                            params=_kp_params({"refine": 0, **{k: v for k, v in kw.items()
+                                                                if v is not None}}),
+                            seed=_number(kw, "seed", int) or 0,
+                            reference=kw.get("reference") or "auto",
                             read=_read(kw), overwrite=bool(kw.get("overwrite")),
                             progress=kw.get("progress"))
 

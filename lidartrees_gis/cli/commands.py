@@ -306,7 +306,15 @@ COMMANDS = {
                default="1:4:0.5"),
          Param("res", "res", "DTM cell size, m, or auto = sqrt(1/n) (Leite et al.)", flag="-tr",
                aliases=("--resolution",), default="auto", unit="m"),
-         *[p for p in KP_PARAMS if p.name not in ("g", "w", "tolerance")],
+         Param("reference", "str", "Reference ground to check each DTM against: a DTM "
+               "GeoTIFF, auto = the file's class-2 points (the vendor's ground) when it has "
+               "any, or none. With a reference, the recommended DTM is the complete one "
+               "closest to it (the texture's choice is reported beside)", flag="-reference",
+               default="auto"),
+         *[p for p in KP_PARAMS if p.name not in ("g", "w", "tolerance", "refine")],
+         Param("refine", "float", "Densification passes after the robust interpolation; 0 (Leite "
+               "et al.'s filter) makes the DTM depend on g and w, with passes most (g, w) give "
+               "one DTM", flag="-refine", default=0, advanced=True),
          Param("seed", "float", "k-means random seed", flag="-seed", default=0, advanced=True),
          *READ_GEO, OVERWRITE), "dtm_quality"),
     "stem": Command(

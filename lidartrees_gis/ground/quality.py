@@ -57,43 +57,63 @@ def _sweep_one(gw):
     return g, w, int(ground.sum()), texture_descriptors(dtm), dtm.astype(np.float32)
 
 
-def cluster_roles(X, names, labels, ground_points) -> dict:
-    """Seed 003's roles of the three k-means clusters: {cluster: "good" | "noisy" |
-    "incomplete"} (see :func:`dtm_quality_file`)."""
-
+def cluster_roles(X, names, labels) -> dict:
+    """Roles of the k-means clusters of complete DTMs: {cluster: "good" | "noisy"}. The good
+    cluster is the smoothest, the highest mean homogeneity (standardised, over the 4 angles):
+    the spikes and holes of seed 003's noisy group lower it. Seed 003's Table 2 also found its
+    good group's dissimilarity higher; on real data the two disagree (bcts_1: the cluster of
+    highest dissimilarity is 1.2 m from the vendor's ground, that of highest homogeneity 0.25 m),
+    so homogeneity decides. Incomplete DTMs (seed 003's group 2, "could not be completely
+    generated") are set apart before clustering (:func:`complete_dtms`)."""
     Z = _standardise(X)
-    cols = [i for i, n in enumerate(names) if n.startswith(("homogeneity", "dissimilarity"))]
+    cols = [i for i, n in enumerate(names) if n.startswith("homogeneity")]
     score = Z[:, cols].mean(axis=1)
     labels = np.asarray(labels)
-    npts = np.asarray(ground_points)
     cl = [int(c) for c in np.unique(labels)]
-    complete = [c for c in cl if np.median(npts[labels == c]) > 0]
-    good = max(complete or cl, key=lambda c: score[labels == c].mean())
-    rest = [c for c in cl if c != good]
-    roles = {good: "good"}
-    if rest:
-        incomplete = min(rest, key=lambda c: np.median(npts[labels == c]))
-        roles[incomplete] = "incomplete"
-        roles.update({c: "noisy" for c in rest if c != incomplete})
-    return roles
+    good = max(cl, key=lambda c: score[labels == c].mean())
+    return {c: ("good" if c == good else "noisy") for c in cl}
+
+
+def complete_dtms(results: list, footprint) -> np.ndarray:
+    """Which swept DTMs are complete: at least 3 ground points and at least 90 % of the cells
+    holding points covered (a TIN covers the hull of its ground points)."""
+    fp = np.asarray(footprint, bool)
+    cov = np.array([np.isfinite(r[4])[fp].mean() if fp.any() else 0.0 for r in results])
+    return np.array([r[2] >= 3 for r in results]) & (cov >= 0.9), cov
+
+
+def reference_agreement(dtm, ref) -> tuple:
+    """(RMSE, mean difference dtm - ref, share of the reference's cells covered), NaN when
+    they share no cell."""
+    m = np.isfinite(dtm) & np.isfinite(ref)
+    n_ref = int(np.isfinite(ref).sum())
+    if not m.any():
+        return float("nan"), float("nan"), 0.0
+    e = dtm[m] - ref[m]
+    return float(np.sqrt(np.mean(e * e))), float(e.mean()), float(m.sum() / max(n_ref, 1))
 
 
 def dtm_quality_file(input, outdir, *, g="-4:1:0.5", w="1:4:0.5", res="auto", params=None,
-                     seed=0, workers=None, read: ReadOptions | None = None, overwrite=False,
-                     progress=None) -> dict:
+                     seed=0, workers=None, reference="auto", read: ReadOptions | None = None,
+                     overwrite=False, progress=None) -> dict:
     """Seed 003's DTM quality sweep: the ground filter and a DTM per (g, w) (linear TIN of the
     ground points, the DTM `ground -dtm` and `chm -dtm kp` write), 12 GLCM texture descriptors
     each, PCA (descriptors with |PC1 loading| >= 0.3), k-means with k = 3, a CSV, one hillshade
     PNG per cluster, a recommended (g, w) and its DTM (``recommended_dtm.tif``).
 
-    Roles, as seed 003 §4 and Table 2 define the groups: the *good* cluster has the highest mean
-    homogeneity and dissimilarity (standardised, averaged over the 8 descriptors of those two
-    kinds) among the clusters of complete DTMs; of the others, the *incomplete* one keeps fewer
-    ground points (median; the seed's group 2 "could not be completely generated") and the last
-    is *noisy* (spikes and holes, group 0). When the sweep gives fewer than 3 distinct DTMs
-    (the densified filter often gives the same DTM for many (g, w)), each distinct DTM is a
-    cluster. The recommended (g, w) is the good cluster's member nearest its centroid. ``rank``
-    orders all DTMs by distance to the good centroid (1 = best).
+    ``params`` defaults to the seed's filter (``refine=0``: robust interpolation only, whose
+    result depends on g and w; the densified filter of ``ground`` gives one DTM for most (g, w)).
+    Incomplete DTMs (fewer than 3 ground points, or less than 90 % of the data's cells covered)
+    are seed 003's group 2 and are set apart; the complete ones are clustered, the smoothest
+    cluster is *good*, the others *noisy* (:func:`cluster_roles`). When there are fewer than 3
+    distinct complete DTMs, each is a cluster.
+
+    ``reference``: a reference ground to check the DTMs against, a DTM GeoTIFF path, ``auto``
+    (the file's class-2 points when it has any, the vendor's ground, as a TIN) or ``none``.
+    Each DTM's RMSE and mean difference to it go in the CSV, and the recommended DTM is then the
+    complete DTM closest to it (the texture's choice is reported beside, with its rank);
+    without a reference, the good cluster's member nearest its centroid. ``rank`` orders the
+    complete DTMs by distance to the good centroid (1 = best).
     """
     out = Path(outdir)
     csv_path = out / "dtm_quality.csv"
@@ -107,30 +127,88 @@ def dtm_quality_file(input, outdir, *, g="-4:1:0.5", w="1:4:0.5", res="auto", pa
     pts = src.read_all(SubProgress(prog, 0, 0.05))
     r = resolve_resolution(src, res)
     spec = GridSpec.from_bounds(pts.x.min(), pts.y.min(), pts.x.max(), pts.y.max(), r, crs=src.crs)
-    base = params or KrausPfeifer()
+    ref, ref_source = _reference(reference, pts, spec)
+    base = params or KrausPfeifer(refine=0)
     results = _sweep(pts, spec, base, combos, workers, SubProgress(prog, 0.05, 0.9))
-    c = _clusters(results, seed)
+    footprint = np.zeros(spec.shape, bool)
+    rr, cc = spec.cell_index(pts.x, pts.y)
+    inside = (rr >= 0) & (rr < spec.height) & (cc >= 0) & (cc < spec.width)
+    footprint[rr[inside], cc[inside]] = True
+    c = _clusters(results, seed, footprint)
+    agree = [reference_agreement(res_[4], ref) if ref is not None else (np.nan, np.nan, 0.0)
+             for res_ in results]
+    c["agree"] = agree
+    best = c["best"]
+    if ref is not None:
+        ok = np.nonzero(c["complete"])[0]
+        best = int(ok[np.nanargmin([agree[k][0] for k in ok])]) if ok.size else best
     out.mkdir(parents=True, exist_ok=True)
     _write_csv(csv_path, results, c)
     pngs = _write_hillshades(out, results, c, r)
-    best = c["best"]
     dtm_path = out / "recommended_dtm.tif"
     params_best = replace(base, g=results[best][0], w=results[best][1]).as_dict()
     write_geotiff(dtm_path, results[best][4], spec, overwrite=True,
                   tags=raster_tags("dtm-quality", src, {"res": r, **params_best}),
                   description="terrain height (m)")
-    labels, roles, good = c["labels"], c["roles"], c["good"]
-    g_eq_minus_w = [(gg, ww) for (gg, ww, *_) in results if abs(gg + ww) < 1e-9]
-    in_good = [k for k in g_eq_minus_w if labels[combos.index(k)] == good]
     prog.update(1.0, "done")
     return {"output": str(csv_path), "dtms": len(results), "res": r,
-            "selected_descriptors": [c["names"][i] for i in c["sel"]],
-            "pc1_variance": float(c["var"][0]),
-            "clusters": [int((labels == k).sum()) for k in sorted(roles)],
-            "good_cluster": good, "roles": {str(k): v for k, v in roles.items()},
-            "recommended_g": results[best][0], "recommended_w": results[best][1],
-            "g_equals_minus_w_in_good": f"{len(in_good)}/{len(g_eq_minus_w)}",
+            "filter": "robust interpolation (refine 0, Leite et al.)" if base.refine == 0
+            else f"robust interpolation + {base.refine} densification passes",
+            **_summary(results, c, best, ref_source),
             "pngs": pngs, "dtm": str(dtm_path), "reprojection": repro_report(src)}
+
+
+def _reference(reference, pts, spec):
+    """The reference ground on the grid: (array or None, its source)."""
+    from ..io.raster import read_raster, resample_to
+
+    choice = "auto" if reference in (None, "") else str(reference)
+    if choice.lower() == "none":
+        return None, "none"
+    if choice.lower() == "auto":
+        cls = getattr(pts, "classification", None)
+        if cls is None or (cls == 2).sum() < 3:
+            return None, "none (the file has no class-2 points)"
+        m = cls == 2
+        return interpolate_tin(pts.x[m], pts.y[m], pts.z[m], spec), \
+            f"the file's class-2 points ({int(m.sum())})"
+    if not Path(choice).is_file():
+        raise InputError(f"-reference: {choice}: no such DTM GeoTIFF")
+    arr, rspec, _ = read_raster(choice)
+    return resample_to(arr, rspec, spec), choice
+
+
+def _summary(results, c, best, ref_source) -> dict:
+    """What the run found, in plain figures."""
+    labels, roles, good = c["labels"], c["roles"], c["good"]
+    role = [roles.get(int(lb), "incomplete") if ok else "incomplete"
+            for lb, ok in zip(labels, c["complete"])]
+    g_eq = [k for k, (gg, ww, *_) in enumerate(results) if abs(gg + ww) < 1e-9]
+    out = {"selected_descriptors": [c["names"][i] for i in c["sel"]],
+           "pc1_variance": float(c["var"][0]),
+           "clusters": {rl: role.count(rl) for rl in ("good", "noisy", "incomplete")},
+           "good_cluster": good, "roles": {str(k): v for k, v in roles.items()},
+           "recommended_g": results[best][0], "recommended_w": results[best][1],
+           "g_equals_minus_w_in_good": f"{sum(role[k] == 'good' for k in g_eq)}/{len(g_eq)}",
+           "reference": ref_source}
+    rm = np.array([a[0] for a in c["agree"]])
+    if np.isfinite(rm).any():
+        ok = np.nonzero(c["complete"] & np.isfinite(rm))[0]
+        order = ok[np.argsort(rm[ok])]
+        tex = c["best"]
+        out.update({
+            "recommended_by": "the reference (closest complete DTM)",
+            "recommended_rmse": round(float(rm[best]), 3),
+            "closest_3": [f"g={results[k][0]:g} w={results[k][1]:g} rmse={rm[k]:.3f}"
+                          for k in order[:3]],
+            "texture_recommended": f"g={results[tex][0]:g} w={results[tex][1]:g} "
+                                   f"rmse={rm[tex]:.3f} (rank {int(np.nonzero(order == tex)[0][0]) + 1 if tex in order else 'n/a'} of {order.size})",
+            "median_rmse_by_role": {rl: round(float(np.nanmedian([rm[k] for k in ok if role[k] == rl])), 3)
+                                    for rl in ("good", "noisy") if any(role[k] == rl for k in ok)},
+            "g_equals_minus_w_rmse": round(float(np.nanmedian(rm[g_eq])), 3) if g_eq else None})
+    else:
+        out["recommended_by"] = "texture (the good cluster's member nearest its centroid)"
+    return out
 
 
 def _check_outputs(out: Path, csv_path: Path, input, overwrite: bool) -> None:
@@ -180,23 +258,35 @@ def _sweep(pts, spec, base, combos, workers, prog) -> list:
     return results
 
 
-def _clusters(results: list, seed: int) -> dict:
-    """Seed 003's analysis of the swept DTMs: descriptors selected by PC1, k-means (k = 3),
-    the clusters' roles, each DTM's rank and the recommended one."""
+def _clusters(results: list, seed: int, footprint) -> dict:
+    """Seed 003's analysis of the swept DTMs: incomplete ones set apart, descriptors selected
+    by PC1, k-means (k = 3) of the complete ones, the clusters' roles, each DTM's rank and the
+    texture's recommendation."""
     names = list(results[0][3])
     X = np.array([[res_[3][n] for n in names] for res_ in results])
-    sel, _, var = pca_select(X, 0.3)
+    complete, cov = complete_dtms(results, footprint)
+    idx = np.nonzero(complete)[0]
+    if idx.size == 0:
+        raise InputError("dtm-quality: no (g, w) gave a complete DTM; widen -g/-w")
+    Xc = X[idx]
+    sel, _, var = pca_select(Xc, 0.3)
     if sel.size == 0:  # PC1 spread evenly (every |loading| < 0.3): keep every descriptor
         sel = np.arange(X.shape[1])
-    Z = _standardise(X)[:, sel]
-    labels, cent = kmeans(Z, 3, seed=seed)
-    npts = np.array([res_[2] for res_ in results])
-    roles = cluster_roles(X, names, labels, npts)
+    Zc = _standardise(Xc)[:, sel]
+    lab_c, cent = kmeans(Zc, min(3, idx.size), seed=seed)
+    roles = cluster_roles(Xc, names, lab_c)
     good = next(c for c, r in roles.items() if r == "good")
-    dist = np.linalg.norm(Z - cent[good], axis=1)
+    labels = np.full(len(results), -1)
+    labels[idx] = lab_c
+    Z = np.full((len(results), sel.size), np.nan)
+    Z[idx] = Zc
+    dist = np.full(len(results), np.inf)
+    dist[idx] = np.linalg.norm(Zc - cent[good], axis=1)
+    rank = np.zeros(len(results), int)
+    rank[idx] = np.argsort(np.argsort(dist[idx])) + 1
     members = np.nonzero(labels == good)[0]
     return {"names": names, "sel": sel, "var": var, "Z": Z, "labels": labels, "cent": cent,
-            "roles": roles, "good": good, "rank": np.argsort(np.argsort(dist)) + 1,
+            "roles": roles, "good": good, "rank": rank, "complete": complete, "coverage": cov,
             "best": int(members[np.argmin(dist[members])])}
 
 
@@ -206,14 +296,23 @@ def _write_csv(path: Path, results: list, c: dict) -> None:
     names, labels, roles, rank = c["names"], c["labels"], c["roles"], c["rank"]
     with atomic_output(path, overwrite=True) as tmp:
         with open(tmp, "w", encoding="utf-8") as fh:
-            fh.write("g,w,ground_points," + ",".join(names) + ",cluster,role,rank\n")
+            fh.write("g,w,ground_points,coverage," + ",".join(names)
+                     + ",cluster,role,rank,ref_rmse,ref_bias,ref_coverage\n")
             for k, (gg, ww, ng, d, _) in enumerate(results):
-                fh.write(f"{gg:g},{ww:g},{ng}," + ",".join(f"{d[n]:.6g}" for n in names)
-                         + f",{labels[k]},{roles[int(labels[k])]},{rank[k]}\n")
+                role = roles[int(labels[k])] if c["complete"][k] else "incomplete"
+                rm, bias, rc = c["agree"][k]
+                fh.write(f"{gg:g},{ww:g},{ng},{c['coverage'][k]:.4f},"
+                         + ",".join(f"{d[n]:.6g}" for n in names)
+                         + f",{labels[k] if labels[k] >= 0 else ''},{role},"
+                         + f"{rank[k] or ''},{_num(rm)},{_num(bias)},{rc:.4f}\n")
+
+
+def _num(v) -> str:
+    return "" if not np.isfinite(v) else f"{v:.4f}"
 
 
 def _write_hillshades(out: Path, results: list, c: dict, res: float) -> list:
-    """One hillshade PNG per cluster: the member nearest the cluster's centroid."""
+    """One hillshade PNG per cluster of complete DTMs: the member nearest its centroid."""
     pngs = []
     for k in sorted(c["roles"]):
         mem = np.nonzero(c["labels"] == k)[0]
