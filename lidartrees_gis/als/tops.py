@@ -95,7 +95,8 @@ def local_maxima(chm, *, min_height: float = 2.0, strict: bool = False):
 
 
 def treex_maxima(chm, res: float, *, mean_crown_area: float, sd_crown_area: float,
-                 min_height: float = 2.0, centred: bool = False, local: bool = False):
+                 min_height: float = 2.0, centred: bool = False, local: bool = False,
+                 origin: tuple = (0, 0)):
     """TreeX tree tops (seed 001): a search window moved over the CHM.
 
     Reading of "a window with dimension equivalent to the mean crown area, moved by the crown-area
@@ -112,6 +113,10 @@ def treex_maxima(chm, res: float, *, mean_crown_area: float, sd_crown_area: floa
     local maximum of its 8 neighbours (drops the flank cells, and a tree that loses every window
     to a taller neighbour in its row); ``centred=True`` keeps it only when it is the highest of
     the same-size window centred on it (drops one of two close trees).
+
+    ``origin``: the (row, column) of the grid's upper-left cell in a global grid of cells; the
+    window positions are those of the global grid (a multiple of the step from its cell 0), so
+    that a tile and the whole area see the same windows.
     """
     if not (mean_crown_area > 0 and sd_crown_area > 0):
         raise InputError("-mean_crown_area and -sd_crown_area must be > 0 (m²)")
@@ -119,17 +124,21 @@ def treex_maxima(chm, res: float, *, mean_crown_area: float, sd_crown_area: floa
     w = max(1, int(round(np.sqrt(mean_crown_area) / res)))
     step = max(1, int(round(np.sqrt(sd_crown_area) / res)))
     H, W = a.shape
-    pad = np.pad(a, ((0, w), (0, w)), constant_values=-np.inf)
+    # windows start at global multiples of the step: pad so that the first starts at or before 0
+    r_off, c_off = (-int(origin[0])) % step, (-int(origin[1])) % step
+    pr, pc = (step - r_off) % step, (step - c_off) % step
+    pad = np.pad(a, ((pr, w), (pc, w)), constant_values=-np.inf)
     cand = np.zeros(a.shape, bool)
     from numpy.lib.stride_tricks import sliding_window_view
 
-    view = sliding_window_view(pad, (w, w))  # (H+1, W+1, w, w)
-    for r0 in range(0, H, step):
-        block = view[r0, 0:W:step].reshape(-1, w * w)
+    view = sliding_window_view(pad, (w, w))
+    starts_c = np.arange(0, W + pc, step)
+    for r0 in range(0, H + pr, step):
+        block = view[r0, starts_c].reshape(-1, w * w)
         k = np.argmax(block, axis=1)
         ok = np.isfinite(block[np.arange(block.shape[0]), k])
-        rr = r0 + k // w
-        cc = np.arange(0, W, step) + k % w
+        rr = r0 + k // w - pr
+        cc = starts_c + k % w - pc
         cand[rr[ok], cc[ok]] = True
     keep = cand & (a >= min_height) & np.isfinite(a)
     for on, size in ((local, 3), (centred, w)):

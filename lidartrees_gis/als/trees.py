@@ -230,13 +230,15 @@ def auto_smoothing(crown_scale: float, res: float) -> tuple:
     return "none", 0.0
 
 
-def find_tops(chm_s, res, p: TreeParams, auto: dict | None = None):
-    """Tree tops on the smoothed CHM by ``p.tops`` (see :attr:`TreeParams.tops_finder`)."""
+def find_tops(chm_s, res, p: TreeParams, auto: dict | None = None, origin=(0, 0)):
+    """Tree tops on the smoothed CHM by ``p.tops`` (see :attr:`TreeParams.tops_finder`);
+    ``origin``: the (row, column) of the CHM's upper-left cell in the global grid (TreeX's
+    window positions)."""
     which = p.tops_finder
     if which == "treex":
         return treex_maxima(chm_s, res, mean_crown_area=p.mean_crown_area,
                             sd_crown_area=p.sd_crown_area, min_height=p.min_height,
-                            centred=p.treex_centred, local=p.treex_local)
+                            centred=p.treex_centred, local=p.treex_local, origin=origin)
     if which == "vwf":
         return variable_window_maxima(chm_s, res, min_height=p.min_height)
     if which == "aw":
@@ -250,6 +252,16 @@ def find_tops(chm_s, res, p: TreeParams, auto: dict | None = None):
                                dominant_height=auto["dominant_height"], min_height=p.min_height,
                                factor=p.window_factor, min_separation=sep)
     return local_maxima(chm_s, min_height=p.min_height, strict=(which == "strict"))
+
+
+def _global_origin(spec) -> tuple:
+    """(row, column) of the grid's upper-left cell in the global grid of its cells (row 0 at
+    y = 0, rows growing southwards), (0, 0) for a grid off that lattice."""
+    o = spec.origin_cells()
+    if o is None:
+        return (0, 0)
+    col, bottom = o
+    return (-int(bottom) - spec.height, int(col))
 
 
 def _watershed_tops(labels, chm_s, min_height):
@@ -327,7 +339,7 @@ def detect_trees(chm, spec: GridSpec, params: TreeParams | None = None, *, heigh
             if hs.shape != chm.shape:
                 raise InputError(f"heights: shape {hs.shape} differs from the CHM's {chm.shape}")
             surface = smooth_chm(hs, smooth, res=spec.res)
-        rows, cols = find_tops(surface, spec.res, p, auto)
+        rows, cols = find_tops(surface, spec.res, p, auto, origin=_global_origin(spec))
         if surface is not chm_s:
             # a single return over low vegetation is no tree: the crown must reach min_height
             ok = np.nan_to_num(chm_s[rows, cols], nan=-np.inf) >= p.min_height
