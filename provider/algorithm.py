@@ -186,6 +186,8 @@ LABELS = {
     "low": "Low-point depth", "method": "Crown segmentation", "output": "Output",
     "prefix": "Output prefix", "reclassify": "Reclassify other classes too",
     "reference": "Reference trees", "refine": "Densification passes",
+    "reference_dtm": "Reference ground (DTM GeoTIFF; auto = class-2 points; none)",
+    "rule": "Boundary rule",
     "res": "Cell size", "scheduler": "Dask scheduler address",
     "skip_invalid": "Skip malformed text lines", "slope": "Slope tolerance factor",
     "smooth": "Smoothing", "spacing": "Planting spacing (rows x trees)",

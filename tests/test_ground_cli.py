@@ -90,3 +90,37 @@ def test_chm_with_kp_dtm_recovers_object_heights(tmp_path):
         # open terrain near 0
         rr, cc = ds.index(100, 100)
         assert abs(chm[rr, cc]) < 0.8
+
+
+def test_dtm_quality_checks_each_dtm_against_a_reference_dtm(tmp_path):
+    """-reference DTM.tif: each DTM's RMSE to it in the CSV, the closest complete one
+    recommended; -reference none: the texture decides and no RMSE is given."""
+    import json
+
+    from rasterio.transform import from_origin
+    from test_ground import synthetic_terrain
+
+    x, y, z, _ = synthetic_terrain(3)
+    keep = (x < 80) & (y < 80)
+    f = tmp_path / "t.las"
+    _write_las(f, x[keep], y[keep], z[keep])
+    yy, xx = np.mgrid[0:80, 0:80] + 0.5
+    truth = 300 + 0.08 * xx + 0.03 * (80 - yy) + 3 * np.sin(xx / 25) * np.cos((80 - yy) / 30)
+    ref = tmp_path / "ref.tif"
+    with rasterio.open(ref, "w", driver="GTiff", width=80, height=80, count=1, dtype="float64",
+                       crs="EPSG:32632", transform=from_origin(0, 80, 1, 1)) as ds:
+        ds.write(truth, 1)
+    out = tmp_path / "q"
+    assert main(["dtm-quality", str(f), str(out), "-g", "-3:0:1", "-w", "1:3:1", "-tr", "1",
+                 "-reference", str(ref), "-q"]) == 0
+    rows = [r for r in csv.DictReader(open(out / "dtm_quality.csv")) if r["role"] != "incomplete"]
+    rm = {(float(r["g"]), float(r["w"])): float(r["ref_rmse"]) for r in rows}
+    with rasterio.open(out / "recommended_dtm.tif") as ds:
+        p = json.loads(ds.tags()["LIDARTREES_PARAMETERS"])
+    assert rm[(p["g"], p["w"])] == min(rm.values()) < 0.3
+    out2 = tmp_path / "q2"
+    assert main(["dtm-quality", str(f), str(out2), "-g", "-3:0:1", "-w", "1:3:1", "-tr", "1",
+                 "-reference", "none", "-q"]) == 0
+    assert all(r["ref_rmse"] == "" for r in csv.DictReader(open(out2 / "dtm_quality.csv")))
+    assert main(["dtm-quality", str(f), str(tmp_path / "q3"), "-reference",
+                 str(tmp_path / "missing.tif"), "-q"]) != 0

@@ -151,7 +151,7 @@ def dtm_quality(input, outdir, **kw):
                             params=_kp_params({"refine": 0, **{k: v for k, v in kw.items()
                                                                 if v is not None}}),
                             seed=_number(kw, "seed", int) or 0,
-                            reference=kw.get("reference") or "auto",
+                            reference=kw.get("reference_dtm") or "auto",
                             read=_read(kw), overwrite=bool(kw.get("overwrite")),
                             progress=kw.get("progress"))
 

@@ -306,7 +306,7 @@ COMMANDS = {
                default="1:4:0.5"),
          Param("res", "res", "DTM cell size, m, or auto = sqrt(1/n) (Leite et al.)", flag="-tr",
                aliases=("--resolution",), default="auto", unit="m"),
-         Param("reference", "str", "Reference ground to check each DTM against: a DTM "
+         Param("reference_dtm", "str", "Reference ground to check each DTM against: a DTM "
                "GeoTIFF, auto = the file's class-2 points (the vendor's ground) when it has "
                "any, or none. With a reference, the recommended DTM is the complete one "
                "closest to it (the texture's choice is reported beside)", flag="-reference",
