@@ -193,6 +193,7 @@ def main():
         h.add_crs(pyproj.CRS.from_user_input(CRS))
         las = laspy.LasData(h)
         las.x, las.y, las.z = stand.x, stand.y, stand.z
+        las.classification = stand.classification  # the true ground: dtm-quality's reference
         las.write(str(f))
         t = time.perf_counter()
         q = dtm_quality_file(f, Path(d) / "q")
@@ -203,6 +204,9 @@ def main():
             "seconds": round(time.perf_counter() - t, 1), "roles": q["roles"],
             "clusters": q["clusters"], "recommended": [q["recommended_g"], q["recommended_w"]],
             "g_equals_minus_w_in_good": q["g_equals_minus_w_in_good"],
+            **{k: q.get(k) for k in ("filter", "reference", "recommended_by", "recommended_rmse",
+                                     "closest_3", "texture_recommended", "median_rmse_by_role",
+                                     "g_equals_minus_w_rmse")},
             "ground_points_by_role": {r: sorted({int(x["ground_points"]) for x in rows
                                                  if x["role"] == r}) for r in set(q["roles"].values())}}
 

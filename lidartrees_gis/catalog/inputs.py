@@ -85,10 +85,7 @@ def expand_inputs(inputs) -> list:
                 raise ReadError(f"{s}: the pattern matches no file")
             out += [Path(h) for h in hits]
         elif p.is_dir():
-            found = sorted(q for q in p.iterdir() if q.suffix.lower() in POINT_SUFFIXES and q.is_file())
-            if not found:
-                raise ReadError(f"{p}: the folder holds no point file ({', '.join(POINT_SUFFIXES)})")
-            out += found
+            out += folder_point_files(p)
         elif p.suffix.lower() == ".vpc":
             out += _vpc_files(p)
         elif is_ept(p) and p.is_file():
@@ -112,6 +109,39 @@ def expand_inputs(inputs) -> list:
         if not q.exists():
             raise ReadError(f"{q}: no such file")
     return uniq
+
+
+#: suffixes of binary point files, taken by their name
+BINARY_SUFFIXES = (".las", ".laz")
+
+
+def folder_point_files(folder: Path) -> list:
+    """The point files of a folder: LAS/LAZ (COPC too) by their suffix, text files (.xyz, .txt,
+    .csv, .pts, .gz) when their content parses as points
+    (:func:`lidartrees_gis.io.xyz.looks_like_points`). The other files (a LEIAME.txt, a tile
+    index CSV, a list of paths) are named once in a warning."""
+    import warnings
+
+    from ..errors import DataWarning
+    from ..io.xyz import looks_like_points
+
+    found, skipped = [], []
+    for q in sorted(folder.iterdir()):
+        if not q.is_file():
+            continue
+        suf = q.suffix.lower()
+        if suf in BINARY_SUFFIXES:
+            found.append(q)
+        elif suf in POINT_SUFFIXES:
+            (found if looks_like_points(q) else skipped).append(q)
+    if not found:
+        raise ReadError(f"{folder}: the folder holds no point file (LAS/LAZ, or XYZ text with x y z"
+                        f" per line){'; not point data: ' + ', '.join(q.name for q in skipped) if skipped else ''}")
+    if skipped:
+        warnings.warn(f"{folder}: {len(skipped)} file(s) are not point data and are left out: "
+                      f"{', '.join(q.name for q in skipped[:10])}{' ...' if len(skipped) > 10 else ''}",
+                      DataWarning, stacklevel=2)
+    return found
 
 
 def _is_list(p: Path) -> bool:

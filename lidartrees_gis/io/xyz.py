@@ -15,6 +15,7 @@ import numpy as np
 from ..errors import InputError, LidarTreesError, ReadError
 from ..progress import as_progress, check_cancel
 from .chunk import PointChunk
+from .names import POINT_COLUMNS, match_column
 
 
 _INT_TOKEN = re.compile(r"^[+-]?[0-9]+$")
@@ -25,16 +26,9 @@ _ASCII_NUMBER = re.compile(r"[+-]?(?:(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-
                            re.IGNORECASE)
 
 
-#: names accepted in an XYZ header or ``columns=`` for each attribute
-COLUMN_ALIASES = {
-    "x": ("x", "e", "east", "easting", "//x"),
-    "y": ("y", "n", "north", "northing"),
-    "z": ("z", "h", "height", "elev", "elevation", "alt", "altitude"),
-    "intensity": ("intensity", "i", "int"),
-    "return_number": ("return_number", "return", "returnnumber", "rn", "r"),
-    "number_of_returns": ("number_of_returns", "numberofreturns", "nr", "num_returns"),
-    "classification": ("classification", "class", "c", "cls"),
-}
+#: names accepted in an XYZ header or ``columns=`` for each attribute (English and Portuguese;
+#: compared without case or accents, see :mod:`lidartrees_gis.io.names`)
+COLUMN_ALIASES = POINT_COLUMNS
 
 
 _ATTR_DTYPES = {"intensity": np.uint16, "return_number": np.uint8,
@@ -94,14 +88,10 @@ def parse_columns(spec, ncols: int | None = None) -> tuple:
         if key in ("-", "_", "skip", "none", ""):
             out.append(None)
             continue
-        for attr, aliases in COLUMN_ALIASES.items():
-            if key in aliases:
-                if attr in out:
-                    raise InputError(f"columns: {attr!r} given twice in {spec!r}")
-                out.append(attr)
-                break
-        else:
-            out.append(None)  # unknown column: kept out
+        attr = match_column(name, COLUMN_ALIASES)
+        if attr is not None and attr in out:
+            raise InputError(f"columns: {attr!r} given twice in {spec!r}")
+        out.append(attr)  # an unknown column (None) is kept out
     for need in ("x", "y", "z"):
         if need not in out:
             raise InputError(f"columns: no {need!r} column in {list(spec)!r}; "
@@ -202,12 +192,47 @@ def sniff_xyz(path, *, delimiter=None, decimal_comma=None, header=None, columns=
             cols = parse_columns(first)
         except InputError:
             cols = parse_columns(["x", "y", "z"] + ["-"] * (ncols - 3))
+        ignored = [t for t, c in zip(first, cols) if c is None and t.strip()]
+        if ignored:
+            from ..errors import DataWarning
+
+            warnings.warn(f"{path}: header column(s) not read: {', '.join(ignored)} (known: "
+                          "x/este/leste, y/norte, z/cota/altitude, classe/classificação, "
+                          "intensidade, retorno, número de retornos; or give -columns)",
+                          DataWarning, stacklevel=2)
     else:
         if ncols < 3:
             raise InputError(f"{path}: line 1 has {ncols} column(s); need at least x, y, z "
                              f"(line: {lines[0][:80]!r}); check --delimiter")
         cols = ("x", "y", "z") + (None,) * (ncols - 3)
     return XYZDialect(delim, bool(decimal_comma), bool(header), cols)
+
+
+def looks_like_points(path, sample: int = 20) -> bool:
+    """Whether a text file holds points: its dialect is detected and the x, y and z columns of
+    its first ``sample`` data lines are numbers (a README, a tile index or a field sheet in a
+    delivery folder is not)."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            d = sniff_xyz(path)
+        idx = [d.columns.index(a) for a in ("x", "y", "z")]
+        n = 0
+        with _open_text(Path(path)) as fh:
+            for k, line in enumerate(fh):
+                s = line.strip()
+                if not s or s.startswith("#") or (k == 0 and d.header):
+                    continue
+                toks = _split(s, d.delimiter)
+                if len(toks) <= max(idx) or not all(_is_number(toks[i].strip(), d.decimal_comma)
+                                                    for i in idx):
+                    return False
+                n += 1
+                if n >= sample:
+                    break
+        return n > 0
+    except (LidarTreesError, ValueError, OSError, EOFError, zlib.error, UnicodeError):
+        return False
 
 
 def xyz_chunks(src, progress):

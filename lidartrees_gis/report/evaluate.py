@@ -116,25 +116,21 @@ def evaluate_trees(det_x, det_y, det_h, ref_x, ref_y, ref_h=None, *, max_dist: f
     return out
 
 
-_XNAMES = ("x", "easting", "east", "e", "xcoord", "x_coord", "lon")
-_YNAMES = ("y", "northing", "north", "n", "ycoord", "y_coord", "lat")
-_HNAMES = ("height", "h", "ht", "z", "tree_height", "zmax", "total_height", "altura")
+def _pick(cols, attr):
+    """The first of ``cols`` that names ``attr`` of :data:`~lidartrees_gis.io.names.TREE_COLUMNS`
+    (English or Portuguese, any case or accents)."""
+    from ..io.names import TREE_COLUMNS, match_column
 
-
-def _pick(cols, names):
-    low = {c.lower(): c for c in cols}
-    for n in names:
-        if n in low:
-            return low[n]
-    return None
+    return next((c for c in cols if match_column(c, TREE_COLUMNS) == attr), None)
 
 
 def read_trees(path, *, layer=None) -> dict:
     """Tree positions (and heights when present) from a CSV or a vector file (GeoPackage,
     shapefile, ...: point geometries, or polygons whose centroids are used).
 
-    CSV columns are found by name (case-insensitive): x/easting, y/northing and, optionally,
-    height/h/ht/z. A vector layer's height comes from a ``height`` (or h, ht, z) attribute.
+    CSV (comma, semicolon or tab separated, decimal point or comma: pt-BR spreadsheets too)
+    columns are found by name, in English or Portuguese, any case or accents: x/easting/este,
+    y/northing/norte and, optionally, height/h/ht/altura. A vector layer's height comes from a ``height`` (or h, ht, z) attribute.
 
     Returns
     -------
@@ -146,17 +142,17 @@ def read_trees(path, *, layer=None) -> dict:
     if not p.exists():
         raise ReadError(f"{p}: no such file")
     if p.suffix.lower() in (".csv", ".txt"):
-        import pandas as pd
+        from ..io.names import read_text_table
 
         try:
-            df = pd.read_csv(p, sep=None, engine="python")
+            df = read_text_table(p)
         except Exception as exc:  # noqa: BLE001 - pandas raises many kinds
             raise ReadError(f"{p}: cannot read as CSV ({exc})") from None
-        xc, yc = _pick(df.columns, _XNAMES), _pick(df.columns, _YNAMES)
+        xc, yc = _pick(df.columns, "x"), _pick(df.columns, "y")
         if xc is None or yc is None:
             raise InputError(f"{p}: no x/y columns found (columns: {', '.join(map(str, df.columns))}); "
-                             "name them x and y (or easting, northing)")
-        hc = _pick(df.columns, _HNAMES)
+                             "name them x and y (or easting/este, northing/norte)")
+        hc = _pick(df.columns, "height")
         try:
             x = df[xc].to_numpy(float)
             y = df[yc].to_numpy(float)
@@ -184,7 +180,7 @@ def read_trees(path, *, layer=None) -> dict:
     geom = gdf.geometry
     if not (geom.geom_type == "Point").all():
         geom = geom.centroid
-    hc = _pick(gdf.columns, _HNAMES)
+    hc = _pick(gdf.columns, "height")
     h = gdf[hc].to_numpy(float) if hc else None
     return {"x": geom.x.to_numpy(), "y": geom.y.to_numpy(), "height": h,
             "crs": gdf.crs.to_wkt() if gdf.crs else None, "n": len(gdf), "layer": layer}
