@@ -17,7 +17,7 @@ import numpy as np
 
 from .grid import GridSpec
 
-__all__ = ["canopy_height", "find_trees", "classify_ground", "raster_profile"]
+__all__ = ["canopy_height", "find_trees", "classify_ground", "point_info", "raster_profile"]
 
 
 def raster_profile(spec: GridSpec, dtype="float32", nodata=float("nan")) -> dict:
@@ -89,6 +89,15 @@ def find_trees(input, *, params=None, res="auto", dtm="auto", chm="pitfree", fil
                   tiling=TilingOptions(tile_size=tile_size, workers=workers), progress=progress)
     layers = r["layers"]
     return layers["tree_tops"], layers["crowns"], layers["summary"].iloc[0].to_dict()
+
+
+def point_info(input, *, a_srs=None, progress=None, **read_kw) -> dict:
+    """What ``lidartrees info`` prints, as a dict: points, bounds, density, CRS, classes of a
+    file; of a folder, glob, list or ``.vpc``, each file's and the whole's."""
+    from .catalog.info import describe_input
+    from .io.options import ReadOptions
+
+    return describe_input(input, ReadOptions(a_srs=a_srs, **read_kw), progress)
 
 
 def classify_ground(input, *, params=None, a_srs=None, t_srs=None, progress=None, **read_kw):

@@ -120,3 +120,21 @@ def test_a_delivery_folder_with_a_readme_and_an_index_runs(stand_txt, tmp_path, 
     import pyogrio
 
     assert pyogrio.read_info(out, layer="tree_tops")["features"] > 100
+
+
+@pytest.mark.realdata
+def test_api_and_info_take_what_the_commands_take(data, tmp_path, capsys):
+    """Folders and globs in `info`, `point_info`, `canopy_height` and `find_trees`, as in
+    `trees`. The library once refused them in `info`."""
+    import lidartrees_gis as lt
+
+    folder = data("lasR_bcts/bcts_1.laz").parent
+    assert main(["info", str(folder), "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "files: 4" in out and "points: 2834350" in out
+    two = lt.point_info(str(folder / "bcts_[12].laz"))
+    assert two["files"] == 2 and two["points"] == 531662 + 823945
+    one = lt.point_info(folder / "bcts_1.laz")
+    assert one["points"] == 531662
+    chm, prof = lt.canopy_height(str(folder / "bcts_[12].laz"))
+    assert chm.shape[0] * prof["transform"].a > 500  # both files, 540 m north to south

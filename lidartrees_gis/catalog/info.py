@@ -1,4 +1,5 @@
-"""``lidartrees info``: what a point source holds (points, bounds, density, CRS, classes)."""
+"""``lidartrees info``: what a point source holds (points, bounds, density, CRS, classes); for
+a folder, glob, list or ``.vpc``: each file's figures and the whole's."""
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
@@ -36,3 +37,43 @@ def info(src: PointSource, progress=None) -> dict:
     else:
         out["dialect"] = src.dialect.describe()
     return out
+
+
+def info_many(files: list, open_one, progress=None) -> dict:
+    """:func:`info` of each file (``open_one(path)`` opens it) and the whole: files, points,
+    bounds, area of the files' boxes, density, CRS (or the CRSs when they differ), classes."""
+    from ..progress import SubProgress, as_progress
+
+    prog = as_progress(progress)
+    each = []
+    for i, f in enumerate(files):
+        each.append(info(open_one(f), SubProgress(prog, i / len(files), (i + 1) / len(files))))
+    b = [r["bounds"] for r in each]
+    bounds = [min(x[0] for x in b), min(x[1] for x in b), max(x[2] for x in b), max(x[3] for x in b)]
+    points = sum(r["points"] for r in each)
+    area = sum(r["area_m2"] for r in each)
+    classes = {}
+    for r in each:
+        for k, v in (r["classes"] or {}).items():
+            classes[k] = classes.get(k, 0) + v
+    crss = sorted({str(r["crs"]) for r in each})
+    return {"files": len(each), "points": points, "bounds": bounds,
+            "z_range": [min(r["z_range"][0] for r in each), max(r["z_range"][1] for r in each)],
+            "area_m2": round(area, 1),
+            "density_pts_m2": round(points / area, 3) if area > 0 else None,
+            "crs": crss[0] if len(crss) == 1 else "several: " + "; ".join(crss),
+            "classes": dict(sorted(classes.items())),
+            "per_file": [{k: r[k] for k in ("file", "format", "points", "bounds",
+                                            "density_pts_m2", "crs")} for r in each]}
+
+
+def describe_input(input, read, progress=None) -> dict:
+    """``lidartrees info`` on what a user names (a file, folder, glob, list or ``.vpc``):
+    :func:`info` of one file, :func:`info_many` of several. ``read``: a
+    :class:`~lidartrees_gis.io.options.ReadOptions`."""
+    from .inputs import expand_inputs
+
+    files = expand_inputs(input)
+    if len(files) == 1:
+        return info(read.open(files[0], filtered=False), progress)
+    return info_many(files, lambda f: read.open(f, filtered=False), progress)

@@ -94,10 +94,9 @@ def _kp_params(kw):
 
 
 def info(input, **kw):
-    from ..catalog.info import info as describe
+    from ..catalog.info import describe_input
 
-    return describe(_read(kw, georeferenced=False).open(input, filtered=False),
-                    progress=kw.get("progress"))
+    return describe_input(input, _read(kw, georeferenced=False), progress=kw.get("progress"))
 
 
 def grid(input, output, **kw):
