@@ -7,10 +7,12 @@ from __future__ import annotations
 import json
 import math
 import warnings
+from pathlib import Path
 
 import numpy as np
 
 from ..errors import OutputExistsError
+from ..io.styles import GPKG_DATASET_OPTIONS, LAYER_STYLES, embed_styles
 from .metrics import tree_ids
 from .tile import TREE_FIELDS
 
@@ -236,7 +238,9 @@ class GpkgTreeLayers(TreeLayers):
             pyogrio.raw.write(self.path, wkb, list(fields.values()), list(fields), layer=layer,
                               driver="GPKG", geometry_type=geometry_type, crs=self.wkt,
                               append=not new, layer_options=self.lco if new else None,
-                              layer_metadata=self.meta if new else None)
+                              layer_metadata=self.meta if new else None,
+                              dataset_options=None if Path(self.path).exists()
+                              else GPKG_DATASET_OPTIONS)
 
     def add(self, r: dict, flush: bool = False) -> None:
         if len(r["tree_id"]):
@@ -287,6 +291,7 @@ class GpkgTreeLayers(TreeLayers):
             pyogrio.write_dataframe(pd.DataFrame([summary]), self.path,
                                     layer=self.names["summary"], driver="GPKG",
                                     append=self.names["summary"] in self.existing)
+        embed_styles(self.path, {self.names[k]: qml for k, qml in LAYER_STYLES.items()})
 
 
 class TreexCsv:

@@ -14,10 +14,11 @@ class MosaicWriter:
                  dtype="float32", nodata="default"):
         import rasterio
 
-        from ..io.raster import DEFAULT_CO, NODATA, rio_crs
+        from ..io.raster import DEFAULT_CO, NODATA, rio_crs, split_overviews
 
         co = dict(DEFAULT_CO)
         co.update({k.upper(): v for k, v in (creation_options or {}).items()})
+        co, self.overviews = split_overviews(co)
         co.setdefault("BIGTIFF", "IF_SAFER")
         if spec.width < 16 or spec.height < 16:
             co.pop("TILED", None), co.pop("BLOCKXSIZE", None), co.pop("BLOCKYSIZE", None)
@@ -61,4 +62,11 @@ class MosaicWriter:
         self.ds.write(a.astype(self.dtype), 1, window=Window(cc0, rr0, cc1 - cc0, rr1 - rr0))
 
     def close(self):
+        """Build the overviews (``-co OVERVIEWS``, see
+        :func:`lidartrees_gis.io.raster.build_overviews`) and close."""
+        from ..io.raster import build_overviews
+
+        if not self.ds.closed:
+            build_overviews(self.ds, self.overviews,
+                            "average" if self.dtype.kind == "f" else "nearest")
         self.ds.close()

@@ -36,6 +36,37 @@ def rio_crs(crs):
     return CRS.from_epsg(epsg) if epsg else CRS.from_wkt(crs.to_wkt())
 
 
+#: rasters larger than this (cells, either side) get overviews by default (``-co OVERVIEWS=``
+#: ``AUTO``, the default; ``NONE``; ``FORCE``), so that QGIS opens a flight's CHM quickly
+OVERVIEW_MIN_SIDE = 2048
+
+
+def split_overviews(co: dict) -> tuple:
+    """(GDAL creation options without ``OVERVIEWS``, the overview mode) from ``-co`` options."""
+    co = dict(co)
+    mode = str(co.pop("OVERVIEWS", "AUTO")).upper()
+    if mode not in ("AUTO", "NONE", "NO", "FORCE", "YES"):
+        raise InputError(f"-co OVERVIEWS={mode}: expected AUTO, NONE or FORCE")
+    return co, {"NO": "NONE", "YES": "FORCE"}.get(mode, mode)
+
+
+def build_overviews(ds, mode: str = "AUTO", resampling: str = "average") -> list:
+    """Internal overviews (factors 2, 4, 8 ... down to 256 cells) of an open dataset when
+    ``mode`` is FORCE, or AUTO and a side exceeds :data:`OVERVIEW_MIN_SIDE` cells."""
+    from rasterio.enums import Resampling
+
+    big = max(ds.width, ds.height)
+    if mode == "NONE" or (mode == "AUTO" and big <= OVERVIEW_MIN_SIDE):
+        return []
+    factors, f = [], 2
+    while big / f >= 256 or not factors:
+        factors.append(f)
+        f *= 2
+    ds.build_overviews(factors, getattr(Resampling, resampling))
+    ds.update_tags(ns="rio_overview", resampling=resampling)
+    return factors
+
+
 def write_geotiff(path, array, spec, *, overwrite=False, nodata=NODATA, dtype="float32",
                   creation_options=None, tags=None, description=None) -> None:
     """Write one band to a GeoTIFF atomically.
@@ -50,7 +81,8 @@ def write_geotiff(path, array, spec, *, overwrite=False, nodata=NODATA, dtype="f
     overwrite : bool
         Replace an existing file; otherwise it is refused and left untouched.
     creation_options : dict, optional
-        GDAL creation options (``-co``) added to / overriding DEFLATE, tiled 256x256.
+        GDAL creation options (``-co``) added to / overriding DEFLATE, tiled 256x256; and
+        ``OVERVIEWS=AUTO|NONE|FORCE`` (:func:`build_overviews`).
     tags : dict, optional
         Provenance tags (values are JSON-encoded when not strings).
     """
@@ -61,6 +93,7 @@ def write_geotiff(path, array, spec, *, overwrite=False, nodata=NODATA, dtype="f
         raise InputError(f"array shape {arr.shape} does not match grid {spec.shape}")
     co = dict(DEFAULT_CO)
     co.update({k.upper(): v for k, v in (creation_options or {}).items()})
+    co, overviews = split_overviews(co)
     if spec.width < 16 or spec.height < 16:
         co.pop("TILED", None), co.pop("BLOCKXSIZE", None), co.pop("BLOCKYSIZE", None)
     if np.dtype(dtype).kind == "f":
@@ -80,6 +113,7 @@ def write_geotiff(path, array, spec, *, overwrite=False, nodata=NODATA, dtype="f
             ds.update_tags(**t)
             if description:
                 ds.set_band_description(1, description)
+            build_overviews(ds, overviews, "average" if np.dtype(dtype).kind == "f" else "nearest")
 
 
 def _spec_of(ds, path) -> GridSpec:

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from ..errors import InputError, OutputExistsError
 from .output import atomic_output
+from .styles import GPKG_DATASET_OPTIONS, embed_styles
 
 
 def _layers(p):
@@ -34,12 +35,13 @@ def start_from_existing(p, tmp, append) -> set:
 
 
 def write_gpkg(path, layers: dict, *, overwrite=False, append=False, layer_options=None,
-               metadata=None) -> None:
+               metadata=None, styles=None) -> None:
     """Write several layers (name -> GeoDataFrame or DataFrame) to one GeoPackage.
 
     ``append`` adds the layers to an existing file (features appended to same-named layers);
     ``overwrite`` replaces the layers written and keeps the file's other layers (as ogr2ogr
-    -overwrite). Work happens on a temporary copy renamed at the end.
+    -overwrite). Work happens on a temporary copy renamed at the end. ``styles``: ``{layer:
+    qml file}`` stored as the layers' default QGIS styles (:mod:`lidartrees_gis.io.styles`).
     """
     import pyogrio
 
@@ -74,4 +76,8 @@ def write_gpkg(path, layers: dict, *, overwrite=False, append=False, layer_optio
                 pyogrio.write_dataframe(df, tmp, layer=name, driver="GPKG",
                                         append=name in existing,
                                         layer_options=layer_options or None,
-                                        layer_metadata=meta or None)
+                                        layer_metadata=meta or None,
+                                        dataset_options=None if Path(tmp).exists()
+                                        else GPKG_DATASET_OPTIONS)
+        if styles:
+            embed_styles(tmp, styles)
