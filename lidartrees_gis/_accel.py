@@ -1,7 +1,9 @@
-"""Optional numba acceleration for measured hot loops, with pure-numpy fallbacks.
+"""numba kernels for measured hot loops, with numpy twins.
 
-``HAVE_NUMBA`` says whether the compiled kernels are used. Every kernel has a numpy twin with
-the same results so the library also runs where numba is not installed (e.g. QGIS's Python).
+numba is a dependency of the package, so every install compiles these. ``HAVE_NUMBA`` says
+whether they are used (``LIDARTREES_NO_NUMBA=1`` turns them off, as where numba cannot be
+imported); every kernel has a numpy twin with the same results (tests/test_fallback.py compares
+the rasters and trees of both on real files).
 """
 from __future__ import annotations
 
@@ -177,15 +179,88 @@ def _raster_triangles_py(px, py, pz, tri, max_edge, left, top, res, height, widt
 _raster_triangles_nb = _jit(_raster_triangles_py)
 
 
+def _raster_triangles_np(px, py, pz, tri, max_edge, left, top, res, height, width, out,
+                         max_radius=0.0, batch=200_000) -> int:
+    """:func:`_raster_triangles_py` vectorised with numpy (the twin used without numba): the
+    same tests in the same arithmetic, so the same cells and values; "kept where higher" is a
+    maximum, which does not depend on the order the triangles are drawn in."""
+    drawn = 0
+    for s in range(0, tri.shape[0], batch):
+        t = tri[s:s + batch]
+        ax, ay, az = px[t[:, 0]], py[t[:, 0]], pz[t[:, 0]]
+        bx, by, bz = px[t[:, 1]], py[t[:, 1]], pz[t[:, 1]]
+        cx, cy, cz = px[t[:, 2]], py[t[:, 2]], pz[t[:, 2]]
+        with np.errstate(invalid="ignore", over="ignore"):
+            ok = np.ones(t.shape[0], bool)
+            if max_edge > 0.0:
+                me2 = max_edge * max_edge
+                ok &= ~(((ax - bx) ** 2 + (ay - by) ** 2 > me2) | ((bx - cx) ** 2 + (by - cy) ** 2 > me2)
+                        | ((cx - ax) ** 2 + (cy - ay) ** 2 > me2))
+            det = (by - cy) * (ax - cx) + (cx - bx) * (ay - cy)
+            ok &= (det != 0.0) & (np.abs(det) < np.inf)
+            if max_radius > 0.0:
+                e2 = (((ax - bx) ** 2 + (ay - by) ** 2) * ((bx - cx) ** 2 + (by - cy) ** 2)
+                      * ((cx - ax) ** 2 + (cy - ay) ** 2))
+                ok &= e2 <= 4.0 * max_radius * max_radius * det * det
+            fj0 = np.ceil((np.minimum(np.minimum(ax, bx), cx) - left) / res - 0.5)
+            fj1 = np.floor((np.maximum(np.maximum(ax, bx), cx) - left) / res - 0.5)
+            fi0 = np.ceil((top - np.maximum(np.maximum(ay, by), cy)) / res - 0.5)
+            fi1 = np.floor((top - np.minimum(np.minimum(ay, by), cy)) / res - 0.5)
+            ok &= ((fj0 <= fj1) & (fi0 <= fi1) & (fj1 >= 0.0) & (fi1 >= 0.0)
+                   & (fj0 <= width - 1.0) & (fi0 <= height - 1.0))
+        drawn += int(ok.sum())
+        k = np.nonzero(ok)[0]
+        if k.size == 0:
+            continue
+        j0 = np.maximum(fj0[k], 0.0).astype(np.int64)
+        i0 = np.maximum(fi0[k], 0.0).astype(np.int64)
+        j1 = np.minimum(fj1[k], width - 1.0).astype(np.int64)
+        i1 = np.minimum(fi1[k], height - 1.0).astype(np.int64)
+        nw, nh = j1 - j0 + 1, i1 - i0 + 1
+        n = nw * nh
+        owner = np.repeat(np.arange(k.size), n)  # one row per (triangle, cell of its box)
+        off = np.arange(owner.size) - np.repeat(np.cumsum(n) - n, n)
+        ii = i0[owner] + off // nw[owner]
+        jj = j0[owner] + off % nw[owner]
+        tk = k[owner]
+        yc = top - (ii + 0.5) * res
+        xc = left + (jj + 0.5) * res
+        A = (ax[tk], ay[tk], az[tk])
+        B = (bx[tk], by[tk], bz[tk])
+        C = (cx[tk], cy[tk], cz[tk])
+        d0 = det[tk]
+        l1 = (B[1] - C[1]) * (xc - C[0]) + (C[0] - B[0]) * (yc - C[1])
+        l2 = (C[1] - A[1]) * (xc - C[0]) + (A[0] - C[0]) * (yc - C[1])
+        neg = d0 < 0
+        l1 = np.where(neg, -l1, l1)
+        l2 = np.where(neg, -l2, l2)
+        d = np.where(neg, -d0, d0)
+        l3 = d - l1 - l2
+        eps = -1e-9 * np.abs(d0)
+        inside = (l1 >= eps) & (l2 >= eps) & (l3 >= eps)
+        v = (l1 * A[2] + l2 * B[2] + l3 * C[2]) / d
+        inside &= v == v
+        ii, jj, v = ii[inside], jj[inside], v[inside]
+        cur = np.full(out.shape, -np.inf)
+        np.maximum.at(cur, (ii, jj), v)
+        hit = cur > -np.inf
+        old = out[hit]
+        out[hit] = np.where(np.isnan(old) | (cur[hit] > old), cur[hit], old)
+    return drawn
+
+
 def raster_triangles(px, py, pz, tri, max_edge, left, top, res, height, width, out,
                      max_radius=0.0) -> int:
-    """Compiled triangle rasteriser (numba only; callers use the numpy path when missing)."""
+    """Triangle rasteriser: each triangle's linear surface at the cell centres it covers, kept
+    where higher (:func:`_raster_triangles_py`); compiled, or its vectorised numpy twin
+    without numba (the same cells and values)."""
     if tri.size and (tri.min() < 0 or tri.max() >= min(px.shape[0], py.shape[0], pz.shape[0])):
         raise ValueError("raster_triangles: a triangle refers to a point that does not exist")
     if out.shape != (height, width):
         raise ValueError(f"raster_triangles: out is {out.shape}, expected {(height, width)}")
-    return _raster_triangles_nb(px, py, pz, tri, float(max_edge), float(left), float(top),
-                                float(res), int(height), int(width), out, float(max_radius))
+    fn = _raster_triangles_nb if HAVE_NUMBA else _raster_triangles_np
+    return fn(px, py, pz, tri, float(max_edge), float(left), float(top), float(res),
+              int(height), int(width), out, float(max_radius))
 
 
 # One function on purpose (192 lines): a numba kernel whose triangulation lives in local arrays;

@@ -111,20 +111,19 @@ def tin_surface(x, y, z, spec: GridSpec, *, max_edge: float = 0.0, cells=None,
     max_edge : float
         Triangles with an edge longer than this (m) are left out; 0 keeps every triangle.
     cells : (M, N) ndarray of bool, optional
-        Only these cells are sampled (others NaN); default all (ignored by the compiled path,
-        which visits only the cells under each triangle anyway).
+        Ignored (kept for callers): the rasteriser visits only the cells under each triangle.
     out : (M, N) ndarray of float, optional
         Draw into this grid, keeping the higher value in each cell (NaN = empty).
     max_radius : float
         Triangles whose circumcircle is wider than this radius (m) are left out (0: keep all).
         The kept triangles then depend only on the points within two radii, so a tile with that
-        much buffer gets the same surface as the whole area (compiled path only).
+        much buffer gets the same surface as the whole area.
 
     Returns
     -------
     (M, N) ndarray of float, NaN outside the triangulation and in dropped triangles.
     """
-    from scipy.spatial import Delaunay, QhullError
+    from scipy.spatial import QhullError
 
     if out is None:
         out = np.full(spec.shape, np.nan)
@@ -133,50 +132,22 @@ def tin_surface(x, y, z, spec: GridSpec, *, max_edge: float = 0.0, cells=None,
         return out
     # triangulate in local coordinates (large UTM values lose precision)
     x0, y0 = float(x.min()), float(y.min())
-    if _accel.HAVE_NUMBA:
-        jx, jy = tiebreak(x, y)
-        lx, ly = x - x0 + jx, y - y0 + jy
-        if max_radius and max_radius > 0:  # compiled triangulation; drawn once it is built
-            order = _morton_order(lx, ly)
-            if _accel.layered_tin(lx[order], ly[order], z[order], [x.size], [float(max_edge)],
-                                  float(max_radius), spec.left - x0, spec.top - y0, spec.res,
-                                  spec.height, spec.width, out) >= 0:
-                return out
-        try:
-            px, py, pz, simp = triangulate(lx, ly, z)
-        except (QhullError, ValueError, RuntimeError):
+    jx, jy = tiebreak(x, y)
+    lx, ly = x - x0 + jx, y - y0 + jy
+    if max_radius and max_radius > 0 and _accel.HAVE_NUMBA:  # compiled, drawn once built
+        order = _morton_order(lx, ly)
+        if _accel.layered_tin(lx[order], ly[order], z[order], [x.size], [float(max_edge)],
+                              float(max_radius), spec.left - x0, spec.top - y0, spec.res,
+                              spec.height, spec.width, out) >= 0:
             return out
-        if len(simp):
-            _accel.raster_triangles(px, py, pz, simp, float(max_edge), spec.left - x0,
-                                    spec.top - y0, spec.res, spec.height, spec.width, out,
-                                    max_radius=float(max_radius or 0.0))
+    try:  # startinpy (else Qhull), drawn by the compiled rasteriser or its numpy twin
+        px, py, pz, simp = triangulate(lx, ly, z)
+    except (QhullError, ValueError, RuntimeError):
         return out
-    pts = np.column_stack([x - x0, y - y0])
-    try:
-        tri = Delaunay(pts)
-    except (QhullError, ValueError):
-        return out
-    simp = tri.simplices
-    if max_edge and max_edge > 0:
-        p = pts[simp]  # (T, 3, 2)
-        e = np.stack([np.hypot(*(p[:, i] - p[:, (i + 1) % 3]).T) for i in range(3)], axis=1)
-        bad_simplex = e.max(axis=1) > max_edge
-    else:
-        bad_simplex = np.zeros(len(simp), bool)
-    if cells is None:
-        cells = np.ones(spec.shape, bool)
-    r, c, cx, cy = _centres_where(spec, cells)
-    q = np.column_stack([cx - x0, cy - y0])
-    s = tri.find_simplex(q)
-    ok = s >= 0
-    ok[ok] &= ~bad_simplex[s[ok]]
-    s_ok = s[ok]
-    T = tri.transform[s_ok]  # barycentric transform
-    b = np.einsum("ijk,ik->ij", T[:, :2, :], q[ok] - T[:, 2, :])
-    w = np.column_stack([b, 1.0 - b.sum(axis=1)])
-    vals = np.einsum("ij,ij->i", w, z[simp[s_ok]])
-    rr, cc = r[ok], c[ok]
-    out[rr, cc] = np.fmax(out[rr, cc], vals)
+    if len(simp):
+        _accel.raster_triangles(px, py, pz, np.ascontiguousarray(simp, np.int64),
+                                float(max_edge), spec.left - x0, spec.top - y0, spec.res,
+                                spec.height, spec.width, out, max_radius=float(max_radius or 0.0))
     return out
 
 
@@ -187,36 +158,22 @@ DTM_MAX_RADIUS = 10.0
 def interpolate_tin(x, y, z, spec: GridSpec, *, max_radius: float = DTM_MAX_RADIUS) -> np.ndarray:
     """Linear interpolation on the Delaunay triangulation of points, sampled at cell centres.
 
-    Triangles whose circumcircle is wider than ``max_radius`` (m) are not used (with numba), so
+    Triangles whose circumcircle is wider than ``max_radius`` (m) are not used, so
     the surface at a cell depends only on the points within two radii (tiles agree with the
     whole); cells outside the triangles take the value of the nearest point.
     """
-    from scipy.interpolate import LinearNDInterpolator, NearestNDInterpolator
-
     x, y, z = (np.asarray(a, float) for a in (x, y, z))
     if x.size < 3:
         if x.size == 0:
             raise InputError("no points to interpolate a surface from")
         return np.full(spec.shape, float(np.mean(z)))
-    if _accel.HAVE_NUMBA:  # compiled rasteriser; the same surface wherever the grid is cut
-        lin = tin_surface(x, y, z, spec, max_radius=max_radius)
-        bad = np.isnan(lin)
-        if bad.any():  # outside the hull or under a wide triangle: the nearest point
-            from scipy.spatial import cKDTree
-
-            rows, cols = np.nonzero(bad)
-            cx, cy = spec.xy(rows, cols)
-            _, k = cKDTree(np.column_stack([x, y])).query(np.column_stack([cx, cy]))
-            lin[rows, cols] = z[k]
-        return lin
-    rows, cols = np.mgrid[0:spec.height, 0:spec.width]
-    cx, cy = spec.xy(rows.ravel(), cols.ravel())
-    pts = np.column_stack([x, y])
-    try:
-        lin = LinearNDInterpolator(pts, z)(cx, cy)
-    except Exception:  # noqa: BLE001 - collinear points: fall back to nearest
-        lin = np.full(cx.shape, np.nan)
+    lin = tin_surface(x, y, z, spec, max_radius=max_radius)
     bad = np.isnan(lin)
-    if bad.any():
-        lin[bad] = NearestNDInterpolator(pts, z)(cx[bad], cy[bad])
-    return lin.reshape(spec.shape)
+    if bad.any():  # outside the hull or under a wide triangle: the nearest point
+        from scipy.spatial import cKDTree
+
+        rows, cols = np.nonzero(bad)
+        cx, cy = spec.xy(rows, cols)
+        _, k = cKDTree(np.column_stack([x, y])).query(np.column_stack([cx, cy]))
+        lin[rows, cols] = z[k]
+    return lin

@@ -97,10 +97,9 @@ def pitfree_chm(x, y, zn, spec: GridSpec, *, thresholds=PITFREE_THRESHOLDS, max_
 
     ts = sorted(float(t) for t in thresholds)
     out = np.full(spec.shape, np.nan)
-    if _accel.HAVE_NUMBA:
-        done = _pitfree_incremental(x, y, zn, spec, ts, max_edge, out)
-        if done is not None:
-            return done
+    done = _pitfree_incremental(x, y, zn, spec, ts, max_edge, out)
+    if done is not None:
+        return done
     reach = None
     for i, t in enumerate(ts):
         sel = zn >= t
@@ -160,9 +159,10 @@ def _pitfree_incremental(x, y, zn, spec: GridSpec, ts, max_edge, out):
         edges.append(float(max_edge[0] if i == 0 else max_edge[1]))
         upper = ts[i]
     grid = (spec.left - x0, spec.top - y0, spec.res, spec.height, spec.width)
-    idx = np.concatenate(bands)  # (the caller checked that numba is there)
+    idx = np.concatenate(bands)
     ends = np.cumsum([b.size for b in bands])
-    if _accel.layered_tin(lx[idx], ly[idx], zn[idx], ends, edges, LOCAL_RADIUS, *grid, out) >= 0:
+    if _accel.HAVE_NUMBA and _accel.layered_tin(lx[idx], ly[idx], zn[idx], ends, edges,
+                                                LOCAL_RADIUS, *grid, out) >= 0:
         return out
     out[:] = np.nan  # bands drawn before the predicates failed: all drawn again below
     startinpy = tin._startinpy()
