@@ -89,9 +89,25 @@ def chm_ramp_items(limits, colours) -> list:
     from qgis.core import QgsColorRampShader
 
     n, lows = len(limits), [0.0] + list(limits[:-1])
-    return [QgsColorRampShader.ColorRampItem(
-        hi, colours[round(i * (len(colours) - 1) / max(n - 1, 1))], f"{lo:g} - {hi:g} m")
-        for i, (lo, hi) in enumerate(zip(lows, limits))]
+    return [QgsColorRampShader.ColorRampItem(hi, _ramp_colour(colours, i / max(n - 1, 1)),
+                                             f"{lo:g} - {hi:g} m")
+            for i, (lo, hi) in enumerate(zip(lows, limits))]
+
+
+def _ramp_colour(colours, t: float):
+    """The colour at ``t`` (0-1) of the ramp through ``colours`` (QColor), linear in RGB: as
+    many classes as the layer needs, each its own colour (picking the nearest anchor gave two
+    classes the same colour when there were more classes than anchors)."""
+    from qgis.PyQt.QtGui import QColor
+
+    if len(colours) == 1:
+        return QColor(colours[0])
+    x = t * (len(colours) - 1)
+    k = min(int(x), len(colours) - 2)
+    f = x - k
+    a, b = colours[k], colours[k + 1]
+    return QColor(*(round(ca + (cb - ca) * f) for ca, cb in
+                    ((a.red(), b.red()), (a.green(), b.green()), (a.blue(), b.blue()))))
 
 
 def fit_chm_classes(layer, classes: int = 6) -> list:
@@ -209,9 +225,15 @@ def qgis_message(cmd, msg: str) -> str:
     flags = []
     for p in cmd.params:
         for f in ((p.flag,) if p.flag else ()) + tuple(p.aliases):
-            flags.append((f, _label(p)))
-    for f, lab in sorted(flags, key=lambda t: -len(t[0])):
-        msg = re.sub(rf"(?<![\w-]){re.escape(f)}(?![\w-])", f"'{lab}'", msg)
+            flags.append((f, _label(p), p.kind != "bool"))
+    # a flag followed by a value in the text ("-a_srs EPSG:29194", "-tr 0.5", "-a_srs 'SAD69
+    # 24K'") reads "'label' = value"; a lower-case word after it is prose, not a value
+    value = r"(?: ('[^']*'|[A-Z0-9][\w:./+-]*|auto|none)(?=[\s,;)]|$))?"
+    for f, lab, takes in sorted(flags, key=lambda t: -len(t[0])):
+        pat = rf"(?<![\w-]){re.escape(f)}(?![\w-])" + (value if takes else "")
+        msg = re.sub(pat, lambda m, lab=lab: f"'{lab}'" + (f" = {m.group(1)}"
+                                                        if m.lastindex and m.group(1) else ""),
+                     msg)
     return msg
 
 
@@ -365,7 +387,9 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
         if p.kind == "crs":
             crs = self.parameterAsCrs(parameters, pid, context)
             if not crs.isValid():
-                return None
+                raw = parameters.get(pid)
+                # a spelling QGIS does not know ('SAD69 24K'): the command reads it or says why
+                return raw.strip() if isinstance(raw, str) and raw.strip() else None
             return crs.authid() or crs.toWkt()
         if p.kind == "kv":
             s = self.parameterAsString(parameters, pid, context)
@@ -402,6 +426,12 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
         from lidartrees_gis.cli.commands import command_args, command_line
 
         cmd = self.cmd
+        known = {d.name() for d in self.parameterDefinitions()}
+        unknown = sorted(k for k in parameters if k not in known)
+        if unknown:
+            raise QgsProcessingException(
+                f"Unknown parameter(s) {', '.join(unknown)} for {self.displayName()}; its "
+                f"parameters are {', '.join(sorted(known))}")
         kw = {p.name: self._value(p, parameters, context) for p in cmd.params if p.name != "json"}
         feedback.pushCommandInfo(command_line(cmd, kw))
         fd, result_file = tempfile.mkstemp(prefix="lidartrees-", suffix=".json")
@@ -429,7 +459,8 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
         if self._name == "trees":
             out["TREES"] = res["trees"]
         for k, v in res.items():
-            if k not in ("table", "crs_wkt") and not isinstance(v, (dict, list)):
+            if k not in ("table", "crs_wkt") and v not in (None, "") \
+                    and not isinstance(v, (dict, list)):
                 feedback.pushInfo(f"{k}: {v}")
         if "table" in res:
             feedback.pushInfo(res["table"])
@@ -447,6 +478,9 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
                     details.setPostProcessor(post)
                 context.addLayerToLoadOnCompletion(uri, details)
             return
+        if context.willLoadLayerOnCompletion(path):  # named after its file, not the label
+            context.layerToLoadOnCompletionDetails(path).name = \
+                os.path.splitext(os.path.basename(path))[0]
         qml = STYLES.get((self._name, p.name))
         if qml and sdir and context.willLoadLayerOnCompletion(path):
             post = _Style(os.path.join(sdir, qml))

@@ -67,11 +67,20 @@ def chm_style(path, out):
 
 
 def dtm_style(path, out):
+    """gdaldem hillshade's light (azimuth 315, altitude 45, z 1, one direction), on data
+    resampled bilinearly before the shading (shading nearest-neighbour blocks draws stripes)."""
+    from qgis.core import QgsRasterDataProvider, QgsRasterPipe
+
     lyr = QgsRasterLayer(str(path), "dtm")
     rend = QgsHillshadeRenderer(lyr.dataProvider(), 1, 315.0, 45.0)
     rend.setZFactor(1.0)
-    rend.setMultiDirectional(True)
+    rend.setMultiDirectional(False)
     lyr.setRenderer(rend)
+    prov = lyr.dataProvider()
+    prov.enableProviderResampling(True)
+    prov.setZoomedInResamplingMethod(QgsRasterDataProvider.ResamplingMethod.Bilinear)
+    prov.setZoomedOutResamplingMethod(QgsRasterDataProvider.ResamplingMethod.Bilinear)
+    lyr.setResamplingStage(QgsRasterPipe.ResamplingStage.Provider)
     lyr.saveNamedStyle(str(out))
 
 

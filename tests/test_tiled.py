@@ -494,7 +494,8 @@ def test_tiled_layers_are_complete_and_indexed(split_stand, tmp_path):
     a = trees_tiled(d, out, tile_size=30, workers=1)
     b = trees_tiled(d, out, tile_size=30, workers=1, append=True, nln="b_")
     assert a["trees"] == b["trees"] > 500
-    layers = [n for n, g in pyogrio.list_layers(out)]
+    layers = [n for n, g in pyogrio.list_layers(out) if n != "layer_styles"]
+    assert "layer_styles" in [n for n, g in pyogrio.list_layers(out)]  # QGIS styles inside
     assert sorted(layers) == sorted(["tree_tops", "crowns", "summary", "b_tree_tops", "b_crowns",
                                      "b_summary"])
     assert [n for n in layers if "summary" not in n] == ["tree_tops", "crowns", "b_tree_tops",
@@ -511,7 +512,8 @@ def test_tiled_layers_are_complete_and_indexed(split_stand, tmp_path):
         con.close()
     info = pyogrio.read_info(out, layer="crowns")
     assert list(info["fields"]) == ["tree_id", "x", "y", "height", "crown_area", "crown_diameter",
-                                    "n_cells", "method"]
+                                    "n_cells", "row_number", "plant_number", "method",
+                                    "small_crown"]
     assert info["geometry_type"] == "Polygon" and "29194" in info["crs"]
     assert json.loads(info["layer_metadata"]["tiles"]) > 1
     assert sorted(p.name for p in tmp_path.iterdir()) == ["t.gpkg"]

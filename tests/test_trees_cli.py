@@ -10,7 +10,8 @@ from rasterio.features import geometry_mask
 from lidartrees_gis.cli import main
 
 pytestmark = pytest.mark.realdata
-FIELDS = ["tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_cells", "method"]
+FIELDS = ["tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_cells", "row_number",
+          "plant_number", "method", "small_crown"]
 
 
 @pytest.fixture(scope="module")

@@ -214,6 +214,7 @@ def _trees_result(output, area, plan, summary, row, p, layers, surface) -> dict:
            "crown_scale": None if plan.crown_scale is None else round(plan.crown_scale, 3),
            "mean_height": _round(row["mean_height"], 2),
            "mean_crown_diameter": _round(row["mean_crown_diameter"], 2),
+           "small_crowns": int(row["small_crowns"]),
            "trees_per_ha": _round(row["trees_per_ha"], 1),
            "gap_trees": int(row["gap_trees"]),
            "planting_detected": row["planting_detected"] or None,
@@ -221,7 +222,7 @@ def _trees_result(output, area, plan, summary, row, p, layers, surface) -> dict:
            "tree_ids": summary.tree_ids}
     if p.spacing is not None:
         out.update({k: row[k] for k in ("spacing", "row_azimuth", "planting_positions",
-                                         "missing_trees")})
+                                         "missing_trees", "numbering")})
         out["stocking_pct"] = _round(row["stocking_pct"], 2)
     if output is None:
         out["layers"] = layers.frames()

@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import OutputExistsError
 from ..io.styles import GPKG_DATASET_OPTIONS, LAYER_STYLES, embed_styles
 from .metrics import tree_ids
-from .tile import TREE_FIELDS
+from .tile import INT_FIELDS, TREE_FIELDS
 
 #: trees written to the GeoPackage together (one write per batch, not two per tile)
 BATCH_TREES = 20_000
@@ -57,8 +57,9 @@ class TreesSummary(Tally):
     def __init__(self):
         super().__init__()
         self.n, self.hsum, self.h2sum, self.dsum = 0, 0.0, 0.0, 0.0
-        self.canopy, self.gap_trees = 0, 0
+        self.canopy, self.gap_trees, self.small = 0, 0, 0
         self.lattices, self.azimuths, self.ids = [], [], []
+        self.numbering, self.numbered = "", 0
         self.stock = dict.fromkeys(self.STOCK, 0)
         self.stock["planted_area_ha"] = 0.0
 
@@ -70,6 +71,7 @@ class TreesSummary(Tally):
         self.hsum += float(h.sum())
         self.h2sum += float((h ** 2).sum())
         self.dsum += float(np.sum(r["crown_diameter"]))
+        self.small += int(small_crowns(r["crown_area"], r["n_cells"]).sum())
         self.canopy += r["canopy_cells"]
         self.gap_trees += r["gap_trees"]
         if r["planting"]:
@@ -79,6 +81,8 @@ class TreesSummary(Tally):
             for k in self.STOCK:
                 self.stock[k] += st[k]
             self.azimuths.append(st["azimuth"])
+            if st.get("numbering") and st["expected"] >= self.numbered:  # the largest tile's
+                self.numbering, self.numbered = st["numbering"], st["expected"]
 
     @property
     def tree_ids(self) -> np.ndarray:
@@ -110,6 +114,7 @@ class TreesSummary(Tally):
         row = {"trees": n, "area_ha": area_ha, "trees_per_ha": n / area_ha if area_ha else np.nan,
                "mean_height": mean_h, "sd_height": sd_h,
                "mean_crown_diameter": self.dsum / n if n else np.nan,
+               "small_crowns": self.small,
                "method": params.method, "smooth": smooth,
                "tops": self.tops_label(params),
                "res": res, "crown_scale": plan.crown_scale, "dominant_height": plan.dominant_height,
@@ -124,6 +129,9 @@ class TreesSummary(Tally):
         if params.spacing is not None:  # plantation mode: the stocking of all tiles
             az = float(np.median(self.azimuths)) if self.azimuths else np.nan
             row.update(stocking_fields(params.spacing, az, self.stock))
+            # how row_number and plant_number count (tiled runs: each tile's own lattice)
+            row["numbering"] = self.numbering + (" (each tile counts its own)"
+                                                 if len(plan.tiles) > 1 else "")
         return row
 
 
@@ -136,12 +144,27 @@ def tree_arrays(r: dict) -> dict:
     return rows
 
 
+#: crowns smaller than this (m²) or than :data:`SMALL_CROWN_CELLS` cells are flagged
+#: (``small_crown`` = 1): a suppressed tree squeezed between its neighbours, or a sliver of a
+#: neighbour's crown split off by a false top; check them before reporting crown sizes
+SMALL_CROWN_M2 = 1.0
+SMALL_CROWN_CELLS = 4
+
+
+def small_crowns(crown_area, n_cells) -> np.ndarray:
+    """Which crowns are flagged small (see :data:`SMALL_CROWN_M2`)."""
+    return (np.asarray(crown_area, float) < SMALL_CROWN_M2) | \
+        (np.asarray(n_cells) < SMALL_CROWN_CELLS)
+
+
 def gap_arrays(st: dict, res: float, tile) -> dict:
     """The empty planting positions of one tile: ids from the position's cell in the global
-    grid (as tree_id), row and position indices of the tile's own lattice."""
+    grid (as tree_id), row and plant numbers as a crew counts them
+    (:func:`lidartrees_gis.als.stocking.crew_numbers`, on the tile's own lattice)."""
     gx, gy = np.asarray(st["gaps_x"], float), np.asarray(st["gaps_y"], float)
-    return {"gap_id": tree_ids(gx, gy, res), "row_index": np.asarray(st["gaps_j"], np.int64),
-            "position_in_row": np.asarray(st["gaps_i"], np.int64), "x": gx, "y": gy,
+    return {"gap_id": tree_ids(gx, gy, res),
+            "row_number": np.asarray(st.get("gaps_row", []), np.int64),
+            "plant_number": np.asarray(st.get("gaps_plant", []), np.int64), "x": gx, "y": gy,
             "tile": np.full(gx.size, "_".join(map(str, tile)), dtype=object)}
 
 
@@ -166,11 +189,12 @@ class TreeLayers:
 
     def _fields(self, parts: list) -> dict:
         data = {c: np.concatenate([p[c] for p in parts]) if parts else
-                np.empty(0, np.int64 if c in ("tree_id", "n_cells") else np.float64)
+                np.empty(0, np.int64 if c in INT_FIELDS else np.float64)
                 for c in TREE_FIELDS}
-        data["tree_id"] = data["tree_id"].astype(np.int64)
-        data["n_cells"] = data["n_cells"].astype(np.int64)
+        for c in INT_FIELDS:
+            data[c] = data[c].astype(np.int64)
         data["method"] = np.full(len(data["tree_id"]), self.method, dtype=object)
+        data["small_crown"] = small_crowns(data["crown_area"], data["n_cells"]).astype(np.int32)
         return data
 
     def frames(self) -> dict:
@@ -189,8 +213,8 @@ class TreeLayers:
                                                       geometry=shapely.from_wkb(wkb[1]))}
         if self.plantation:
             g = {k: np.concatenate([p[k] for p in self.gaps]) for k in self.gaps[0]} \
-                if self.gaps else {k: np.empty(0) for k in ("gap_id", "row_index",
-                                                            "position_in_row", "x", "y", "tile")}
+                if self.gaps else {k: np.empty(0) for k in ("gap_id", "row_number",
+                                                            "plant_number", "x", "y", "tile")}
             out[self.names["gaps"]] = gpd.GeoDataFrame(g, crs=crs,
                                                        geometry=shapely.points(g["x"], g["y"]))
         out[self.names["summary"]] = pd.DataFrame([self.summary])
@@ -283,7 +307,8 @@ class GpkgTreeLayers(TreeLayers):
         if plantation and self.names["gaps"] not in self.created | self.existing:
             import shapely
 
-            g = gap_arrays({"gaps_x": [], "gaps_y": [], "gaps_i": [], "gaps_j": []}, 1.0, ())
+            g = gap_arrays({"gaps_x": [], "gaps_y": [], "gaps_i": [], "gaps_j": [],
+                            "gaps_row": [], "gaps_plant": []}, 1.0, ())
             self._raw(shapely.to_wkb(shapely.points(g["x"], g["y"])), g, self.names["gaps"],
                       "Point")
         with warnings.catch_warnings():
@@ -327,7 +352,7 @@ class QuickLook:
         self.spec = spec if k == 1 else GridSpec.from_bounds(*spec.bounds, spec.res * k,
                                                              crs=spec.crs)
         self.chm = np.full(self.spec.shape, np.nan)
-        self.crowns, self.x, self.y = [], [], []
+        self.crowns, self.x, self.y, self.gx, self.gy = [], [], [], [], []
 
     def add(self, r: dict) -> None:
         a = np.asarray(r["chm"], np.float64)
@@ -337,6 +362,10 @@ class QuickLook:
             self.crowns.append(np.asarray(list(r["wkb"]), dtype=object))
             self.x.append(np.asarray(r["x"]))
             self.y.append(np.asarray(r["y"]))
+        st = r.get("stocking")
+        if st is not None and len(st["gaps_x"]):
+            self.gx.append(np.asarray(st["gaps_x"], float))
+            self.gy.append(np.asarray(st["gaps_y"], float))
 
     def _paste(self, a, left, top) -> None:
         s, k = self.fine, self.k
@@ -363,5 +392,6 @@ class QuickLook:
         x = np.concatenate(self.x) if self.x else np.empty(0)
         y = np.concatenate(self.y) if self.y else np.empty(0)
         rows, cols = self.spec.cell_index(x, y)
+        gaps = (np.concatenate(self.gx), np.concatenate(self.gy)) if self.gx else None
         write_quicklook(path, self.chm, labels, rows, cols, spec=self.spec, title=title,
-                        overwrite=overwrite)
+                        overwrite=overwrite, gaps=gaps)

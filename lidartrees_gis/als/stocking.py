@@ -156,6 +156,40 @@ def stand_mask(chm, res: float, row_spacing: float, tree_spacing: float, *,
     return ndimage.binary_fill_holes(closed | canopy)
 
 
+_COMPASS = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
+
+
+def _compass(azimuth: float) -> str:
+    return _COMPASS[int(((azimuth % 360.0) + 22.5) // 45.0) % 8]
+
+
+def crew_numbers(grid: PlantingGrid, i, j) -> tuple:
+    """Row and plant numbers of planting positions ``(i, j)`` as a field crew counts them, and
+    the rule in words. The rows are taken to run towards the northern half (bearing in
+    (-90, 90], east for east-west rows); row 1 is the outermost row on the left of that
+    direction (the west side of north-south rows, the north side of east-west ones) and the
+    rows count across the stand; in each row, plant 1 is the row's first position from its
+    southern (western) end, counted along the row with the gaps. Returns ``(row, plant,
+    text)``; in a tiled run, within each tile's lattice."""
+    i = np.asarray(i, float)
+    j = np.asarray(j, float)
+    a = grid.azimuth % 180.0
+    s = 1.0 if a <= 90.0 else -1.0  # u towards the northern half (or east)
+    run = a if s > 0 else a - 180.0  # the rows' bearing in [-90, 90]
+    ii, jj = np.round(s * i).astype(np.int64), np.round(s * j).astype(np.int64)
+    if ii.size == 0:
+        return ii, ii, ""
+    row = jj - jj.min() + 1
+    first = {}
+    for r, k in zip(row.tolist(), ii.tolist()):
+        first[r] = min(first.get(r, k), k)
+    plant = ii - np.array([first[r] for r in row.tolist()]) + 1
+    text = (f"row 1 on the {_compass(run - 90.0)} side (rows run {_compass(run + 180.0)} to "
+            f"{_compass(run)}, at {run % 360.0:.1f}°), plant 1 at the {_compass(run + 180.0)} "
+            "end of each row")
+    return row, plant, text
+
+
 def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
              grid: PlantingGrid | None = None, within=None) -> dict:
     """Planting positions, missing trees and stocking of a plantation.
@@ -170,7 +204,10 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
     dict with ``grid`` (:class:`PlantingGrid`), ``expected`` (positions), ``stocked``,
     ``missing``, ``extra`` (tops sharing a position with another, e.g. forks or weeds),
     ``stocking_pct``, ``planted_per_ha`` (10,000 / (R x C)), ``gaps_x``, ``gaps_y``,
-    ``gaps_i``, ``gaps_j`` (lattice indices of the missing trees). ``grid``: a lattice already
+    ``gaps_i``, ``gaps_j`` (lattice indices of the missing trees), ``gaps_row``,
+    ``gaps_plant`` (their row and plant numbers, :func:`crew_numbers`), ``tops_row``,
+    ``tops_plant`` (those of the position each top takes, 0 for none) and ``numbering`` (the
+    rule in words). ``grid``: a lattice already
     fitted to these tops (e.g. by :func:`detect_planting`), not fitted again. ``within``
     (left, bottom, right, top): the tops are matched to every position, but only the
     positions, tops and planted cells inside this box are counted and reported (a tile's core).
@@ -199,6 +236,10 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
     node_k, top_k = match_trees(nx, ny, tx, ty, max_dist=0.5 * min(R, C))
     stocked_mask = np.zeros(ii.size, bool)
     stocked_mask[node_k] = True
+    row_no, plant_no, numbering = crew_numbers(g, ii, jj)
+    tops_row = np.zeros(tx.size, np.int64)
+    tops_plant = np.zeros(tx.size, np.int64)
+    tops_row[top_k], tops_plant[top_k] = row_no[node_k], plant_no[node_k]
     expected = int(ii.size)
     stocked = int(stocked_mask.sum())
     gaps = ~stocked_mask
@@ -211,6 +252,7 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
         x0, y0, x1, y1 = within
         inb = (nx >= x0) & (nx < x1) & (ny >= y0) & (ny < y1)
         ii, jj, nx, ny, stocked_mask = ii[inb], jj[inb], nx[inb], ny[inb], stocked_mask[inb]
+        row_no, plant_no = row_no[inb], plant_no[inb]
         expected, stocked = int(ii.size), int(stocked_mask.sum())
         gaps = ~stocked_mask
         free &= (tx >= x0) & (tx < x1) & (ty >= y0) & (ty < y1)
@@ -227,7 +269,9 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
             "stocking_pct": 100.0 * stocked / expected if expected else float("nan"),
             "planted_per_ha": 1e4 / (R * C), "planted_area_ha": planted_cells * spec.cell_area / 1e4,
             "gaps_x": nx[gaps], "gaps_y": ny[gaps], "gaps_i": ii[gaps].astype(np.int64),
-            "gaps_j": jj[gaps].astype(np.int64)}
+            "gaps_j": jj[gaps].astype(np.int64), "gaps_row": row_no[gaps],
+            "gaps_plant": plant_no[gaps], "tops_row": tops_row, "tops_plant": tops_plant,
+            "numbering": numbering}
 
 
 #: plantation mode's second look at an empty planting position (:func:`gap_tops`): the apex may

@@ -19,7 +19,10 @@ from .surfaces import SurfaceOptions, box_surfaces
 from .trees import TreeParams, detect_trees
 
 #: the per-tree fields every tile sends back (and every output carries)
-TREE_FIELDS = ("tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_cells")
+TREE_FIELDS = ("tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_cells",
+               "row_number", "plant_number")
+#: the integer ones (row and plant numbers: plantation mode, 0 for a tree on no position)
+INT_FIELDS = ("tree_id", "n_cells", "row_number", "plant_number")
 
 #: plantation mode warns below this point density (points/m² of the area): planted trees lower
 #: than their in-row neighbours are often missed and the stocking is under-reported (measured on
@@ -104,8 +107,7 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
 
 
 def _empty_trees(tile: Tile, res: float) -> dict:
-    out = {c: np.empty(0, np.int64 if c in ("tree_id", "n_cells") else np.float64)
-           for c in TREE_FIELDS}
+    out = {c: np.empty(0, np.int64 if c in INT_FIELDS else np.float64) for c in TREE_FIELDS}
     out.update({"wkb": [], "top_wkb": [], "gap_trees": 0, "planting": None, "stocking": None,
                 "chm": np.empty((0, 0), np.float32), "chm_left": tile.box[0],
                 "chm_top": tile.box[3], "res": res, "canopy_cells": 0, "points": 0,
@@ -140,13 +142,19 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
     remap = np.zeros(len(t["x"]) + 1, np.int64)
     remap[idx + 1] = np.arange(1, idx.size + 1)
     polys = crown_polygons(remap[r["labels"]], spec, idx.size)
+    st = r.get("stocking")  # plantation mode: the core's positions
+    if st is not None:
+        t = {**t, "row_number": st["tops_row"], "plant_number": st["tops_plant"]}
+    else:
+        t = {**t, "row_number": np.zeros(len(t["x"]), np.int64),
+             "plant_number": np.zeros(len(t["x"]), np.int64)}
     out = {c: np.asarray(t[c])[idx] for c in TREE_FIELDS}
     out["gap_trees"] = _core_gap_trees(r, t, idx)
     out["planting"] = r.get("planting_detected")
-    st = r.get("stocking")  # plantation mode: the core's positions
     out["stocking"] = None if st is None else {
         **{k: st[k] for k in ("expected", "stocked", "missing", "extra", "planted_area_ha",
-                              "gaps_x", "gaps_y", "gaps_i", "gaps_j")},
+                              "gaps_x", "gaps_y", "gaps_i", "gaps_j", "gaps_row",
+                              "gaps_plant", "numbering")},
         "azimuth": st["grid"].azimuth}
     out["wkb"] = shapely.to_wkb(np.asarray(polys, dtype=object)) if idx.size else []
     out["top_wkb"] = shapely.to_wkb(shapely.points(out["x"], out["y"])) if idx.size else []

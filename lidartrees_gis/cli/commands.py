@@ -287,7 +287,7 @@ COMMANDS = {
         "(Leite et al.) and TIN densification, classified LAS/LAZ and DTM",
         (INPUT, Param("output", "output", "Output classified LAS/LAZ (ground = class 2)"),
          Param("dtm_out", "output", "Also write the DTM GeoTIFF (linear TIN of the ground points)",
-               flag="-dtm"),
+               flag="-dtm_out", aliases=("-dtm",)),
          Param("res", "res", "DTM cell size, m, or auto = sqrt(1/n) (Leite et al.)", flag="-tr",
                aliases=("--resolution",), default="auto", unit="m"),
          *KP_PARAMS,
@@ -309,7 +309,8 @@ COMMANDS = {
          Param("reference_dtm", "str", "Reference ground to check each DTM against: a DTM "
                "GeoTIFF, auto = the file's class-2 points (the vendor's ground) when it has "
                "any, or none. With a reference, the recommended DTM is the complete one "
-               "closest to it (the texture's choice is reported beside)", flag="-reference",
+               "closest to it (the texture's choice is reported beside)",
+               flag="-reference_dtm", aliases=("-reference",),
                default="auto"),
          *[p for p in KP_PARAMS if p.name not in ("g", "w", "tolerance", "refine")],
          Param("refine", "float", "Densification passes after the robust interpolation; 0 (Leite "

@@ -11,9 +11,11 @@ from ..crs import crs_label
 from .classes import height_classes, round_length
 
 
-def write_quicklook(path, chm, labels, rows, cols, *, spec=None, title=None, overwrite=False):
+def write_quicklook(path, chm, labels, rows, cols, *, spec=None, title=None, overwrite=False,
+                    gaps=None):
     """Quick-look PNG: the CHM in colour classes with a legend, crown outlines and tree tops,
-    map coordinates on the axes, a scale bar and a title (e.g. the stand summary).
+    the missing trees of plantation mode (``gaps``: map x, y), map coordinates on the axes, a
+    scale bar and a title (e.g. the stand summary).
 
     ``spec`` (:class:`GridSpec`) gives the coordinates and scale bar; without it the axes are in
     cells. The title and the summary are also stored as PNG text (Title, Description).
@@ -61,6 +63,12 @@ def write_quicklook(path, chm, labels, rows, cols, *, spec=None, title=None, ove
         tx, ty = c + 0.5, r + 0.5
     ax.scatter(tx, ty, s=max(4.0, 3000.0 / max(len(r), 1) ** 0.5 / 10), c="#e31a1c",
                edgecolors="white", linewidths=0.4, zorder=3, label=f"tree tops ({len(r):,})")
+    n_gaps = 0
+    if gaps is not None and len(gaps[0]):
+        gx, gy = (np.asarray(v, float) for v in gaps)  # map coordinates (needs spec)
+        n_gaps = gx.size
+        ax.scatter(gx, gy, s=max(16.0, 3000.0 / max(len(r), 1) ** 0.5 / 4), marker="x",
+                   c="#000000", linewidths=1.2, zorder=4, label=f"missing trees ({n_gaps:,})")
     ax.plot([], [], color=(0.85, 0.0, 0.55), label="crowns")
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 0.2), fontsize=8, frameon=False)
     ax.set_xlim(left, right)
@@ -87,6 +95,8 @@ def write_quicklook(path, chm, labels, rows, cols, *, spec=None, title=None, ove
     with atomic_output(path, overwrite, param="-png") as tmp:
         fig.savefig(tmp, format="png", metadata={"Title": title.split("\n")[0],
                                                  "Description": title,
+                                                 "Comment": f"tree tops {len(r)}; missing trees "
+                                                            f"{n_gaps}",
                                                  "Software": f"lidartrees_gis {__version__}"})
     plt.close(fig)
 
