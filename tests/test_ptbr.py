@@ -138,3 +138,5 @@ def test_api_and_info_take_what_the_commands_take(data, tmp_path, capsys):
     assert one["points"] == 531662
     chm, prof = lt.canopy_height(str(folder / "bcts_[12].laz"))
     assert chm.shape[0] * prof["transform"].a > 500  # both files, 540 m north to south
+    tops, crowns, summary = lt.find_trees(str(folder / "bcts_[12].laz"))
+    assert len(tops) == len(crowns) == summary["trees"] and tops["y"].max() > 629600
