@@ -21,7 +21,7 @@ def stand_txt(tmp_path_factory):
     cls = np.r_[pts.classification, [7] * 5]
     f = tmp_path_factory.mktemp("pt") / "voo.txt"
     with open(f, "w", encoding="utf-8") as fh:
-        fh.write("Este\tNorte\tCota\tIntensidade\tClassificação\n")
+        fh.write("Este\tNorte\tCota\tIntensidade\tClasse\n")
         for a, b, c, k in zip(x, y, z, cls):
             fh.write(f"{a:.2f}\t{b:.2f}\t{c:.3f}\t100\t{k}\n".replace(".", ","))
     return f, truth
@@ -42,7 +42,7 @@ def test_portuguese_column_names(name, attr):
 
 
 def test_portuguese_header_keeps_the_classes(stand_txt, tmp_path):
-    """The classes of a `Classificação` column are read: the noise (class 7) is dropped and the
+    """The classes of a `Classe` column are read: the noise (class 7) is dropped and the
     ground (class 2) makes the DTM. The library once ignored the column silently."""
     f, _ = stand_txt
     out = tmp_path / "chm.tif"
