@@ -1,4 +1,5 @@
 import json
+import re
 
 import numpy as np
 import pyproj
@@ -174,3 +175,22 @@ def test_sigterm_removes_partial_output(tmp_path, seed_xyz):
     assert p.returncode == 130
     assert not out.exists()
     assert not [f for f in tmp_path.iterdir() if ".part" in f.name]
+
+
+def test_results_are_plain_lines_on_stdout_even_with_q(tmp_path, capsys):
+    """Issue 26: the result goes to stdout as `key: value` lines (nested values flattened, no
+    Python reprs), printed with -q too; with stderr not a terminal no progress frames are
+    written; --json gives JSON."""
+    out = tmp_path / "d"
+    assert main(["demo", str(out), "-q"]) == 0
+    c = capsys.readouterr()
+    lines = c.out.splitlines()
+    assert "trees_truth: 592" in lines and "accuracy.f_score: 0.998" in lines
+    assert not any("{" in ln or "[" in ln for ln in lines)
+    assert all(re.match(r"^[\w.]+: ", ln) for ln in lines)
+    assert "\r" not in c.err and "%|" not in c.err
+    assert main(["demo", str(out), "-overwrite"]) == 0  # no -q: stderr is not a terminal here
+    c = capsys.readouterr()
+    assert "accuracy.recall: 0.997" in c.out and "\r" not in c.err
+    assert main(["info", str(out / "stand.xyz"), "-a_srs", "EPSG:29194", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["points"] > 80000

@@ -282,7 +282,7 @@ def test_t_srs_states_and_stores_the_operation(tmp_path, capsys):
     crs = ["-a_srs", "SAD69 24K", "-t_srs", "EPSG:31984"]
     for cmd, out in (("chm", tmp_path / "c.tif"), ("trees", tmp_path / "t.gpkg")):
         assert main([cmd, str(f), str(out), *crs]) == 0
-        printed = capsys.readouterr().err  # results go to stderr, as GDAL's
+        printed = capsys.readouterr().out  # the result on stdout, messages on stderr
         line = [ln for ln in printed.splitlines() if ln.startswith("reprojection:")]
         assert len(line) == 1 and "SAD69" in line[0] and "SIRGAS 2000" in line[0]
         assert "accuracy" in line[0]
@@ -418,7 +418,7 @@ def test_ground_stores_the_t_srs_operation_in_the_las(tmp_path, capsys):
     write_xyz_seed_dialect(f, pts)
     out = tmp_path / "g.laz"
     assert main(["ground", str(f), str(out), "-a_srs", "SAD69 24K", "-t_srs", "EPSG:31984"]) == 0
-    assert any(ln.startswith("reprojection:") for ln in capsys.readouterr().err.splitlines())
+    assert any(ln.startswith("reprojection:") for ln in capsys.readouterr().out.splitlines())
     meta = read_provenance(out)
     assert meta["command"] == "ground" and meta["g"] == -2.0 and meta["w"] == 2.5
     assert "SAD69" in meta["reprojection_source_crs"]

@@ -140,7 +140,7 @@ def test_stem_and_profile_state_the_t_srs_operation(tmp_path, data, capsys):
     crs = ["-a_srs", "EPSG:32632", "-t_srs", "EPSG:25832"]
     for args in (["stem", str(f), str(tmp_path / "pine")], ["profile", str(f), str(tmp_path / "p.laz")]):
         assert main(args + crs) == 0
-        line = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("reprojection:")]
+        line = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("reprojection:")]
         assert len(line) == 1 and "ETRS89" in line[0] and "accuracy" in line[0], args[0]
 
 

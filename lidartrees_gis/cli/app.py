@@ -73,24 +73,39 @@ def _tidy(v):
     return v
 
 
-def _print_result(name, res, quiet, as_json):
+def result_lines(res: dict, prefix: str = "") -> list:
+    """A command's result as plain ``key: value`` lines: nested dicts as ``key.sub: value``,
+    lists of values joined by commas, lists of dicts as ``key.1.sub: value``; None left out."""
+    out = []
+    for k, v in res.items():
+        key = f"{prefix}{k}"
+        if v is None or k == "table":
+            continue
+        if isinstance(v, dict):
+            out += result_lines(v, key + ".")
+        elif isinstance(v, (list, tuple)) and v and all(isinstance(x, dict) for x in v):
+            for i, x in enumerate(v, 1):
+                out += result_lines(x, f"{key}.{i}.")
+        elif isinstance(v, (list, tuple)):
+            out.append(f"{key}: {', '.join(str(x) for x in v)}")
+        else:
+            out.append(f"{key}: {v}")
+    return out
+
+
+def _print_result(name, res, as_json):
+    """The result on stdout (the progress and the messages go to stderr): ``key: value`` lines,
+    or JSON with ``--json``; printed with ``-q`` too."""
     if as_json:
         print(json.dumps(res, indent=2, default=str))
         return
     if not isinstance(res, dict):
         return
     res = {k: (v if k == "table" else _tidy(v)) for k, v in res.items()}
-    if name == "info":  # the result itself: printed even with -q
-        for k, v in res.items():
-            if k != "crs_wkt" and not (k == "reprojection" and v is None):
-                print(f"{k}: {v}")
-        return
-    if quiet:
-        return
-    for k, v in res.items():
-        if v is None or k == "table" or (isinstance(v, dict) and "table" in res):
-            continue  # dicts shown by the table are not repeated
-        print(f"{k}: {v}", file=sys.stderr)
+    if name == "info":
+        res = {k: v for k, v in res.items() if k != "crs_wkt"}
+    for line in result_lines(res):
+        print(line)
     if "table" in res:
         print(res["table"])
 
@@ -133,8 +148,10 @@ def main(argv=None) -> int:
     as_json = bool(kw.pop("json", False))
     if args.progress_lines:
         progress = LineProgress()
+    elif args.quiet or not sys.stderr.isatty():  # no bar frames in logs and pipes
+        progress = NullProgress()
     else:
-        progress = NullProgress() if args.quiet else TqdmProgress(desc=cmd.name)
+        progress = TqdmProgress(desc=cmd.name)
     _terminate_as_interrupt()
     import warnings
 
@@ -165,7 +182,8 @@ def main(argv=None) -> int:
     if args.result_json:
         with open(args.result_json, "w", encoding="utf-8") as fh:
             json.dump(res, fh, default=str)
-    _print_result(cmd.name, res, args.quiet or args.progress_lines, as_json)
+    if not args.progress_lines:  # QGIS reads --result-json
+        _print_result(cmd.name, res, as_json)
     return 0
 
 
