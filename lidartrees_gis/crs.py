@@ -180,3 +180,21 @@ def transform_points(x: np.ndarray, y: np.ndarray, repro: Reprojection):
     """Transform coordinate arrays with a :class:`Reprojection`; returns new arrays."""
     xx, yy = repro(np.asarray(x, float), np.asarray(y, float))
     return np.asarray(xx), np.asarray(yy)
+
+
+def missing_crs_hint(x=None, y=None) -> str:
+    """What to give for a file without a CRS, from one of its points ``(x, y)``: longitude and
+    latitude are recognised; projected coordinates do not say their datum or UTM zone, so no
+    zone is guessed (the delivery's metadata says it)."""
+    try:
+        x, y = float(x), float(y)
+    except (TypeError, ValueError):
+        x = y = float("nan")
+    if abs(x) <= 180 and abs(y) <= 90:
+        return ("its coordinates look like longitude/latitude: give e.g. -a_srs EPSG:4674 "
+                "(SIRGAS 2000) or -a_srs EPSG:4326 (WGS 84)")
+    if 100_000 <= x <= 900_000 and 0 <= y <= 10_000_000:
+        return (f"its coordinates (x {x:.0f}, y {y:.0f}) look like UTM, whose datum and zone "
+                "they do not say: give the delivery's with -a_srs, as an EPSG code (SIRGAS "
+                "2000 / UTM zones 18S-25S are EPSG:31978-31985) or as 'SAD69 23K'")
+    return "give the delivery's CRS with -a_srs (an EPSG code, WKT or 'SAD69 23K')"

@@ -408,9 +408,9 @@ def test_empty_tiles_between_files_are_skipped(split_stand, tmp_path):
     d, files, _ = split_stand
     lst = tmp_path / "two.txt"
     lst.write_text(f"{files[0]}\n{files[2]}\n")  # a 21 m strip without points between them
-    r = trees_tiled(lst, tmp_path / "t.gpkg", tile_size=10, workers=1,
+    r = trees_tiled(lst, tmp_path / "t.gpkg", tile_size=20, workers=1,
                     chm_out=tmp_path / "c.tif")
-    both = trees_tiled(d, tmp_path / "all.gpkg", tile_size=10, workers=1)
+    both = trees_tiled(d, tmp_path / "all.gpkg", tile_size=20, workers=1)
     assert 0 < r["trees"] < both["trees"] and r["tiles"] == both["tiles"]
     with rasterio.open(tmp_path / "c.tif") as ds:
         a = ds.read(1, masked=True)
@@ -429,7 +429,7 @@ def test_sparse_chm_mosaic_is_seamless(tmp_path):
     f = tmp_path / "sparse.laz"
     write_points(f, pts.x[keep], pts.y[keep], pts.z[keep], crs=CRS.from_epsg(29194),
                  classification=pts.classification[keep])
-    for name, ts in (("m.tif", "15"), ("one.tif", "none")):
+    for name, ts in (("m.tif", "20"), ("one.tif", "none")):
         assert main(["chm", str(f), str(tmp_path / name), "-tile_size", ts, "-workers", "1",
                      "-q"]) == 0
     with rasterio.open(tmp_path / "m.tif") as a, rasterio.open(tmp_path / "one.tif") as b:

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..crs import crs_label
 from ..errors import CRSError, InputError
 from ..io.options import ReadOptions
 from .inputs import ept_crs, expand_inputs, is_ept
@@ -62,8 +63,11 @@ class Catalog:
                 if crs is None:
                     crs = src.crs
                 elif not crs.equals(src.crs, ignore_axis_order=True):
-                    raise CRSError(f"{f}: CRS {src.crs.to_string()} differs from the other files' "
-                                   f"{crs.to_string()}; reproject them first or give -a_srs")
+                    raise CRSError(
+                        f"{f}: CRS {crs_label(src.crs)} differs from the other files' "
+                        f"{crs_label(crs)}; give -t_srs (e.g. -t_srs {crs_label(crs).split()[0]}) "
+                        "to transform every file from its own CRS into one (-a_srs would only "
+                        "relabel them and misplace the data)")
         return cls(files, bounds, counts, crs, read, skipped, repro)
 
     @property

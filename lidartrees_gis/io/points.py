@@ -220,14 +220,34 @@ def open_points(path, *, a_srs=None, t_srs=None, delimiter=None, decimal_comma=N
                           skip_invalid=skip_invalid, chunk_size=chunk_size)
     if t_srs:
         if src.src_crs is None:
-            raise CRSError(f"{path}: -t_srs needs the source CRS; the file has none, give -a_srs "
-                           "(e.g. -a_srs EPSG:29194)")
+            from ..crs import missing_crs_hint
+
+            raise CRSError(f"{path}: -t_srs needs the source CRS and the file has none; "
+                           f"{missing_crs_hint(*_first_xy(src))}")
         src.repro = reprojection(src.src_crs, t_srs)
     if require_crs and src.crs is None:
-        raise CRSError(f"{path}: no CRS in the file, the outputs would not be georeferenced; give "
-                       "one with -a_srs (e.g. -a_srs EPSG:29194 or -a_srs 'SAD69 24K'), put a .prj "
-                       "file beside it, or write without a CRS with --allow-no-crs")
+        from ..crs import missing_crs_hint
+
+        x0, y0 = _first_xy(src)
+        raise CRSError(f"{path}: no CRS in the file, the outputs would not be georeferenced; "
+                       f"{missing_crs_hint(x0, y0)}; or put a .prj file beside it, or write "
+                       "without a CRS with --allow-no-crs")
     return src
+
+
+def _first_xy(src) -> tuple:
+    """A point of the source (the LAS header's lower corner, or the first XYZ point), for
+    messages; (None, None) when it cannot be had cheaply."""
+    try:
+        if src.format == "las":
+            b = src.header_info["bounds"]
+            return b[0], b[1]
+        for chunk in src.chunks():
+            if len(chunk):
+                return float(chunk.x[0]), float(chunk.y[0])
+    except Exception:  # noqa: BLE001 - only for a message
+        pass
+    return None, None
 
 
 __all__ = ["DEFAULT_CHUNK", "LAS_SUFFIXES", "PointChunk", "PointSource", "PointStats",

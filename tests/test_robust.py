@@ -1,0 +1,67 @@
+"""Issue 26: what a user gets when the input or an option is wrong: refusals instead of hangs,
+hints that fit the file, the right advice for mixed datums."""
+import numpy as np
+import pytest
+from pyproj import CRS, Transformer
+
+from lidartrees_gis.cli import main
+
+
+@pytest.mark.parametrize("size", ["0.5", "1e-3", "19"])
+def test_tiny_tiles_are_refused_at_once(size, tmp_path, capsys, data):
+    """-tile_size 0.5 and 1e-3 ran until killed (millions of tiles): a tile smaller than 20
+    cells or than the buffer is refused, naming the smallest allowed."""
+    out = tmp_path / "c.tif"
+    assert main(["chm", str(data("lidR_extdata/MixedConifer.laz")), str(out), "-tile_size", size,
+                 "-q"]) == 1
+    err = capsys.readouterr().err
+    assert "-tile_size" in err and "at least 20 m" in err and not out.exists()
+
+
+def test_missing_crs_hint_fits_the_coordinates(tmp_path, capsys):
+    """No SAD-69 zone suggested for every file: UTM-like coordinates get no guessed zone,
+    longitude/latitude get a geographic CRS."""
+    utm = tmp_path / "utm.xyz"
+    utm.write_text("".join(f"{300000 + i} {4100000 + i} 10\n" for i in range(50)))
+    assert main(["chm", str(utm), str(tmp_path / "a.tif"), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert "look like UTM" in err and "29194" not in err and "-a_srs" in err
+    ll = tmp_path / "ll.xyz"
+    ll.write_text("".join(f"{-43.2 + i * 1e-5} {-22.9 + i * 1e-5} 10\n" for i in range(50)))
+    assert main(["chm", str(ll), str(tmp_path / "b.tif"), "-q"]) == 1
+    assert "EPSG:4674" in capsys.readouterr().err
+
+
+def test_a_folder_mixing_datums_is_told_to_use_t_srs(tmp_path, capsys):
+    """Half a stand in SIRGAS 2000 / UTM 24S and half in SAD69 / UTM 24S: the error advises
+    -t_srs (never -a_srs, which would put the SAD-69 half about 60 m off); with -t_srs the
+    trees are those of the whole stand in SIRGAS 2000."""
+    import pyogrio
+
+    from lidartrees_gis.io.lasout import write_points
+    from lidartrees_gis.synthetic import StandParams, make_stand
+
+    pts, _ = make_stand(StandParams(width=40, height=40))
+    d = tmp_path / "voo"
+    d.mkdir()
+    west = pts.x < np.median(pts.x)
+    sirgas, sad = CRS.from_epsg(31984), CRS.from_epsg(29194)
+    write_points(d / "a.las", pts.x[west], pts.y[west], pts.z[west], crs=sirgas,
+                 classification=pts.classification[west])
+    tx, ty = Transformer.from_crs(sirgas, sad, always_xy=True).transform(pts.x[~west], pts.y[~west])
+    write_points(d / "b.las", tx, ty, pts.z[~west], crs=sad,
+                 classification=pts.classification[~west])
+    assert main(["trees", str(d), str(tmp_path / "x.gpkg"), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert "-t_srs" in err and "give -a_srs" not in err
+    whole = tmp_path / "whole.las"
+    write_points(whole, pts.x, pts.y, pts.z, crs=sirgas, classification=pts.classification)
+    assert main(["trees", str(d), str(tmp_path / "t.gpkg"), "-t_srs", "EPSG:31984", "-q"]) == 0
+    assert main(["trees", str(whole), str(tmp_path / "w.gpkg"), "-q"]) == 0
+    a = pyogrio.read_dataframe(tmp_path / "t.gpkg", layer="tree_tops")
+    b = pyogrio.read_dataframe(tmp_path / "w.gpkg", layer="tree_tops")
+    assert abs(len(a) - len(b)) <= 2 and len(b) > 200
+    from scipy.spatial import cKDTree
+
+    dist, _ = cKDTree(np.c_[b.geometry.x, b.geometry.y]).query(np.c_[a.geometry.x, a.geometry.y])
+    assert np.median(dist) < 0.3
