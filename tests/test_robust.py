@@ -65,3 +65,46 @@ def test_a_folder_mixing_datums_is_told_to_use_t_srs(tmp_path, capsys):
 
     dist, _ = cKDTree(np.c_[b.geometry.x, b.geometry.y]).query(np.c_[a.geometry.x, a.geometry.y])
     assert np.median(dist) < 0.3
+
+
+def _corrupt_laz(src, kind):
+    import struct
+
+    b = bytearray(src.read_bytes())
+    off, = struct.unpack_from("<I", b, 96)
+    ct, = struct.unpack_from("<q", b, off)
+    if kind == "table_overwritten":
+        b[ct:ct + 64] = b"\xff" * 64
+    elif kind == "offset_doubled":
+        struct.pack_into("<I", b, 96, off * 2)
+    elif kind == "billion_chunks":
+        struct.pack_into("<II", b, ct, 0, 10 ** 9)
+    elif kind == "entries_garbage":
+        struct.pack_into("<II", b, ct, 0, 2)
+        b[ct + 8:] = b"\xff" * (len(b) - ct - 8)
+    elif kind == "points_zeroed":
+        b[5000:9000] = b"\x00" * 4000
+    return bytes(b)
+
+
+@pytest.mark.realdata
+@pytest.mark.parametrize("kind", ["table_overwritten", "offset_doubled", "billion_chunks",
+                                  "entries_garbage", "points_zeroed"])
+def test_a_corrupt_laz_is_one_line_never_an_abort(kind, data, tmp_path):
+    """The LAZ decoder aborted the process (SIGABRT and a Rust backtrace of 125 lines) on a
+    chunk table overwritten; now the chunk table is checked before decoding and a decoder
+    panic is one line naming the file. Run in a subprocess: an abort would kill pytest."""
+    import os
+    import subprocess
+    import sys
+
+    f = tmp_path / f"{kind}.laz"
+    f.write_bytes(_corrupt_laz(data("lidR_extdata/MixedConifer.laz"), kind))
+    env = dict(os.environ, RUST_BACKTRACE="1")
+    for args in (["info", str(f)], ["chm", str(f), str(tmp_path / "c.tif")]):
+        p = subprocess.run([sys.executable, "-m", "lidartrees_gis.cli", *args, "-q"],
+                           capture_output=True, text=True, env=env, timeout=120)
+        lines = [ln for ln in p.stderr.splitlines() if ln.strip()]
+        assert p.returncode == 1, (kind, args[0], p.returncode, p.stderr[-300:])
+        assert len(lines) == 1 and str(f) in lines[0] and "error:" in lines[0], lines[:3]
+    assert not (tmp_path / "c.tif").exists()

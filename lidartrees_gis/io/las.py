@@ -40,7 +40,51 @@ def _check_las_raw(path):
         if nevlr and (start > size or nevlr * 60 > size - start):
             raise ReadError(f"{path}: the LAS header lists {nevlr:,} extended VLRs from byte "
                             f"{start}, beyond the {size}-byte file; the header is corrupt")
+    if b[104] & 0x80:  # LAZ: the chunk table the decoder will trust
+        _check_laz_chunk_table(path, b, hsize, offset, nvlr, size)
     return b
+
+
+def _check_laz_chunk_table(path, b, hsize: int, offset: int, nvlr: int, size: int) -> None:
+    """Refuse a LAZ file whose chunk table cannot be true (the decoder would allocate what it
+    says and abort the process): its offset beyond the file, a version other than 0, or more
+    chunks than the points (or the file's bytes) allow."""
+    import struct
+
+    legacy, = struct.unpack_from("<I", b, 107)
+    count = struct.unpack_from("<Q", b, 247)[0] if b[25] >= 4 and len(b) >= 255 else 0
+    count = int(count or legacy)
+    chunk_size = None
+    with open(path, "rb") as fh:
+        fh.seek(hsize)
+        for _ in range(nvlr):  # the laszip VLR gives the points per chunk
+            vh = fh.read(54)
+            if len(vh) < 54:
+                break
+            user, rec, length = vh[2:18].rstrip(b"\0"), *struct.unpack_from("<HH", vh, 18)
+            body = fh.read(length)
+            if user == b"laszip encoded" and rec == 22204 and len(body) >= 16:
+                chunk_size, = struct.unpack_from("<I", body, 12)
+        fh.seek(offset)
+        raw = fh.read(8)
+        if len(raw) < 8:
+            raise ReadError(f"{path}: the LAZ point data is missing (file of {size} bytes)")
+        ct, = struct.unpack("<q", raw)
+        if ct == -1:  # no chunk table written: the decoder scans the chunks itself
+            return
+        if not (offset + 8 <= ct <= size - 8):
+            raise ReadError(f"{path}: the LAZ chunk table is corrupt (it is said to start at byte "
+                            f"{ct}, outside the {size}-byte file)")
+        fh.seek(ct)
+        version, nchunks = struct.unpack("<II", fh.read(8))
+    if version != 0:
+        raise ReadError(f"{path}: the LAZ chunk table is corrupt (version {version}, not 0)")
+    most = size - ct  # every chunk's entry takes at least a byte of the table
+    if chunk_size and chunk_size != 0xFFFFFFFF:
+        most = min(most, count // max(chunk_size, 1) + 2)
+    if nchunks > max(most, 1):
+        raise ReadError(f"{path}: the LAZ chunk table is corrupt ({nchunks:,} chunks for "
+                        f"{count:,} points in a {size:,}-byte file)")
 
 
 def las_point_count(path) -> int:
@@ -107,6 +151,34 @@ def laz_backend():
     return None
 
 
+class _DecoderStderr:
+    """Silence the process's stderr (fd 2) while the LAZ decoder runs: a decoder panic prints
+    its message and backtrace there before it becomes a Python exception, which is reported as
+    one line naming the file. Only the decoder's calls are wrapped."""
+
+    def __enter__(self):
+        import os
+        import sys
+
+        try:
+            sys.stderr.flush()
+            self.saved = os.dup(2)
+            self.null = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(self.null, 2)
+        except OSError:  # no fd 2 (e.g. a GUI): nothing to silence
+            self.saved = None
+        return self
+
+    def __exit__(self, *exc):
+        import os
+
+        if self.saved is not None:
+            os.dup2(self.saved, 2)
+            os.close(self.saved)
+            os.close(self.null)
+        return False
+
+
 def las_chunks(src, progress):
     """Yield the points of the LAS/LAZ source ``src`` in chunks (x, y, z, classes, returns,
     intensity); non-finite coordinates are dropped and counted in ``src.skipped``."""
@@ -115,11 +187,18 @@ def las_chunks(src, progress):
     prog = as_progress(progress)
     try:
         out_hdr = 0
-        with laspy.open(src.path, laz_backend=laz_backend()) as reader:
+        with _DecoderStderr():  # a LAZ reader reads the chunk table when it opens
+            reader = laspy.open(src.path, laz_backend=laz_backend())
+        with reader:
             total = max(int(reader.header.point_count), 1)
             done = 0
             dims = set(reader.header.point_format.dimension_names)
-            for pts in reader.chunk_iterator(src.chunk_size):
+            chunks = reader.chunk_iterator(src.chunk_size)
+            while True:
+                with _DecoderStderr():
+                    pts = next(chunks, None)
+                if pts is None:
+                    break
                 check_cancel(progress)
                 x = np.asarray(pts.x, dtype=np.float64)
                 y = np.asarray(pts.y, dtype=np.float64)
@@ -154,7 +233,10 @@ def las_chunks(src, progress):
                 "header states; the header is stale (the points were used)"), stacklevel=2)
     except LidarTreesError:
         raise
-    except Exception as exc:  # noqa: BLE001 - laspy, lazrs, struct, EOF: a broken file
+    except BaseException as exc:  # noqa: BLE001 - laspy, lazrs (a Rust panic is a
+        # BaseException), struct, EOF: a broken file
+        if isinstance(exc, (KeyboardInterrupt, SystemExit, GeneratorExit)):
+            raise
         kind = "LAZ" if src.path.suffix.lower() == ".laz" else "LAS"
         raise ReadError(f"{src.path}: cannot read {kind} points, the file is truncated or "
                         f"corrupt ({type(exc).__name__}: {str(exc)[:120]})") from None

@@ -15,7 +15,8 @@ import numpy as np
 from ..crs import Reprojection, crs_from_sidecar, parse_crs, reprojection
 from ..errors import CRSError, InputError, ReadError
 from .chunk import PointChunk, PointStats
-from .las import _check_las_header, _check_las_raw, las_chunks, las_point_count, laz_backend
+from .las import (_check_las_header, _check_las_raw, _DecoderStderr, las_chunks, las_point_count,
+                  laz_backend)
 from .xyz import XYZDialect, sniff_xyz, xyz_chunks
 
 LAS_SUFFIXES = (".las", ".laz")
@@ -193,7 +194,9 @@ def open_points(path, *, a_srs=None, t_srs=None, delimiter=None, decimal_comma=N
 
         _check_las_raw(path)
         try:
-            with laspy.open(path) as reader:
+            with _DecoderStderr():
+                reader = laspy.open(path)
+            with reader:
                 h = reader.header
                 info = {
                     "count": int(h.point_count),
@@ -207,8 +210,11 @@ def open_points(path, *, a_srs=None, t_srs=None, delimiter=None, decimal_comma=N
                     file_crs = h.parse_crs()
                 except Exception:  # noqa: BLE001 - a broken CRS VLR is reported as no CRS
                     file_crs = None
-        except Exception as exc:  # noqa: BLE001
-            raise ReadError(f"{path}: cannot open as LAS/LAZ ({exc})") from None
+        except BaseException as exc:  # noqa: BLE001 - a decoder panic is a BaseException
+            if isinstance(exc, (KeyboardInterrupt, SystemExit)):
+                raise
+            raise ReadError(f"{path}: cannot open as LAS/LAZ ({type(exc).__name__}: "
+                            f"{str(exc)[:120]})") from None
         if info["count"] == 0:
             raise InputError(f"{path}: the LAS header says the file holds no points")
         _check_las_header(path, h, info["count"])
