@@ -73,8 +73,8 @@ def _check_laz_chunk_table(path, b, hsize: int, offset: int, nvlr: int, size: in
         if ct == -1:  # no chunk table written: the decoder scans the chunks itself
             return
         if not (offset + 8 <= ct <= size - 8):
-            raise ReadError(f"{path}: the LAZ chunk table is corrupt (it is said to start at byte "
-                            f"{ct}, outside the {size}-byte file)")
+            raise ReadError(f"{path}: the LAZ file is truncated or corrupt (its chunk table is "
+                            f"said to start at byte {ct}, outside the {size}-byte file)")
         fh.seek(ct)
         version, nchunks = struct.unpack("<II", fh.read(8))
     if version != 0:
