@@ -63,7 +63,7 @@ def test_profile_canopy_start_where_the_crown_begins(data, name, tmp_path):
     want = crown_begins(p.x, p.y, p.z)
     assert want > 5
     out = tmp_path / "parts.laz"
-    args = ["profile", str(data(name)), str(out), "-q"]
+    args = ["profile", str(data(name)), str(out), "--allow-no-crs", "-q"]
     if name.endswith(".txt"):
         args += ["-a_srs", "EPSG:32631"]
     assert main(args) == 0

@@ -118,7 +118,8 @@ def test_profile_without_root_zone_places_canopy_where_branches_begin():
 def test_stem_and_profile_on_treels_pine(tmp_path, data):
     f = data("TreeLS_tls/pine.laz")
     pre = tmp_path / "pine"
-    assert main(["stem", str(f), str(pre), "-q"]) == 0
+    assert main(["stem", str(f), str(pre), "-q"]) == 1  # TreeLS's pine has no CRS: refused
+    assert main(["stem", str(f), str(pre), "--allow-no-crs", "-q"]) == 0
     s = json.loads((tmp_path / "pine_summary.json").read_text())
     assert 15 < s["dbh_cm"] < 40 and s["reached_percent"] > 50
     trunk = laspy.read(tmp_path / "pine_trunk.laz")
@@ -126,7 +127,7 @@ def test_stem_and_profile_on_treels_pine(tmp_path, data):
     for suffix in ("_sections.csv", "_sections.gpkg", "_taper.png"):
         assert (tmp_path / f"pine{suffix}").stat().st_size > 0
     out = tmp_path / "parts.laz"
-    assert main(["profile", str(f), str(out), "-q"]) == 0
+    assert main(["profile", str(f), str(out), "--allow-no-crs", "-q"]) == 0
     b = json.loads((tmp_path / "parts_boundaries.json").read_text())
     assert 0 <= b["stem_start"] < b["canopy_start"] < b["top"] <= 21
     part = np.asarray(laspy.read(out).part)

@@ -337,7 +337,7 @@ COMMANDS = {
                default="auto", advanced=True),
          Param("start", "float", "First section this far above the base", flag="-start",
                default=0.5, advanced=True, unit="m"),
-         *READ, OVERWRITE), "stem"),
+         *READ_GEO, OVERWRITE), "stem"),
     "profile": Command(
         "profile", "Terrestrial", "Roots / stem / canopy from the point-density profile "
         "(Queiroz 2017)",
@@ -352,7 +352,7 @@ COMMANDS = {
                "leaves the stem's (3x and 0.25 m more, over a metre); queiroz = Queiroz's "
                "ordinal rule, the 1st, 2nd and 3rd inflections are tree, stem and canopy start",
                flag="-rule", choices=("spread", "queiroz"), default="spread"),
-         *READ, OVERWRITE), "profile", outputs=("output",)),
+         *READ_GEO, OVERWRITE), "profile", outputs=("output",)),
     "evaluate": Command(
         "evaluate", "Trees", "Accuracy of tree tops against reference trees (Eysn et al. 2015 "
         "matching): recall, precision, F, height bias and RMSE",

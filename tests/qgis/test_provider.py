@@ -253,12 +253,13 @@ def test_ground_and_dtm_quality_algorithms(qgis_app, tmp_path, data):
 
 def test_stem_and_profile_algorithms(qgis_app, tmp_path, data):
     f = data("TreeLS_tls/pine.laz")
-    r = run("stem", {"INPUT": str(f), "PREFIX": str(tmp_path / "stem")})
+    r = run("stem", {"INPUT": str(f), "PREFIX": str(tmp_path / "stem"), "ALLOW_NO_CRS": True})
     s = json.loads((tmp_path / "stem" / "pine_summary.json").read_text())
-    assert main(["stem", str(f), str(tmp_path / "cli"), "-q"]) == 0
+    assert main(["stem", str(f), str(tmp_path / "cli"), "--allow-no-crs", "-q"]) == 0
     c = json.loads((tmp_path / "cli_summary.json").read_text())
     assert s["dbh_cm"] == pytest.approx(c["dbh_cm"]) and s["trunk_points"] == c["trunk_points"]
-    r = run("profile", {"INPUT": str(f), "OUTPUT": str(tmp_path / "parts.laz")})
+    r = run("profile", {"INPUT": str(f), "OUTPUT": str(tmp_path / "parts.laz"),
+                        "ALLOW_NO_CRS": True})
     b = json.loads((tmp_path / "parts_boundaries.json").read_text())
     assert b["stem_start"] < b["canopy_start"] and Path(r["OUTPUT"]).exists()
 
