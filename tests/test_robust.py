@@ -108,3 +108,20 @@ def test_a_corrupt_laz_is_one_line_never_an_abort(kind, data, tmp_path):
         assert p.returncode == 1, (kind, args[0], p.returncode, p.stderr[-300:])
         assert len(lines) == 1 and str(f) in lines[0] and "error:" in lines[0], lines[:3]
     assert not (tmp_path / "c.tif").exists()
+
+
+def test_thousands_separators_are_read_and_named(tmp_path, capsys):
+    """412.955,63 (pt-BR: dots between thousands, a decimal comma) was read as 412.955 with
+    exit 0; now the dots are dropped and the columns that use them are named."""
+    from lidartrees_gis.io.points import open_points
+
+    f = tmp_path / "voo.txt"
+    f.write_text("X\tY\tZ\n" + "".join(f"412.{955 + i:03d},63\t7.952.{505 + i:03d},99\t25,46\n"
+                                       for i in range(20)), encoding="utf-8")
+    with pytest.warns(Warning, match="x, y group thousands"):
+        p = open_points(f).read_all()
+    assert p.x[0] == pytest.approx(412955.63) and p.y[-1] == pytest.approx(7952524.99)
+    assert p.z[0] == pytest.approx(25.46)
+    assert main(["info", str(f), "-a_srs", "EPSG:31984", "-q"]) == 0
+    c = capsys.readouterr()
+    assert "412955.63" in c.out and "thousands" in c.err

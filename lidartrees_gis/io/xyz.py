@@ -43,6 +43,7 @@ class XYZDialect:
     decimal_comma: bool
     header: bool
     columns: tuple  # attribute name per column, or None for ignored columns
+    thousands: bool = False  # '.' groups thousands (pt-BR: 412.955,63 = 412955.63)
 
     def describe(self) -> str:
         d = {None: "whitespace", "\t": "tab", ",": "comma", ";": "semicolon", " ": "space"}.get(
@@ -70,6 +71,8 @@ def _split(line: str, delimiter):
 def _is_number(tok: str, decimal_comma: bool) -> bool:
     t = tok.strip()
     if decimal_comma:
+        if _THOUSANDS.match(t):  # 412.955,63
+            return True
         t = t.replace(",", ".")
     try:
         float(t)
@@ -205,7 +208,32 @@ def sniff_xyz(path, *, delimiter=None, decimal_comma=None, header=None, columns=
             raise InputError(f"{path}: line 1 has {ncols} column(s); need at least x, y, z "
                              f"(line: {lines[0][:80]!r}); check --delimiter")
         cols = ("x", "y", "z") + (None,) * (ncols - 3)
-    return XYZDialect(delim, bool(decimal_comma), bool(header), cols)
+    thousands = bool(decimal_comma) and _thousands_columns(path, lines[1:] if header else lines,
+                                                           delim, cols)
+    return XYZDialect(delim, bool(decimal_comma), bool(header), cols, thousands)
+
+
+#: a number written with '.' between groups of three digits and a decimal comma
+_THOUSANDS = re.compile(r"^[+-]?\d{1,3}(?:\.\d{3})+(?:,\d+)?$")
+
+
+def _thousands_columns(path, lines, delim, cols) -> bool:
+    """Whether a decimal-comma file groups thousands with dots (``412.955,63``); the columns
+    that do are named in a warning (their dots are dropped when read)."""
+    hits = set()
+    for ln in lines:
+        for i, t in enumerate(_split(ln, delim)):
+            if _THOUSANDS.match(t.strip()):
+                hits.add(i)
+    if not hits:
+        return False
+    from ..errors import DataWarning
+
+    names = ", ".join((cols[i] if i < len(cols) and cols[i] else f"column {i + 1}")
+                      for i in sorted(hits))
+    warnings.warn(f"{path}: {names} group thousands with '.' (e.g. 412.955,63 = 412955.63); "
+                  "the dots are dropped when the numbers are read", DataWarning, stacklevel=3)
+    return True
 
 
 def looks_like_points(path, sample: int = 20) -> bool:
@@ -296,6 +324,8 @@ def _xyz_chunks_raw(src, progress):
 def _parse_block(src, block, start, usecols, ncol_min):
     d = src.dialect
     text = "".join(block)
+    if d.thousands:
+        text = text.replace(".", "")
     if d.decimal_comma:
         text = text.replace(",", ".")
     try:
@@ -311,6 +341,8 @@ def _parse_block(src, block, start, usecols, ncol_min):
         s = line.strip()
         if not s or s.startswith("#"):
             continue
+        if d.thousands:
+            s = s.replace(".", "")
         toks = _split(s.replace(",", ".") if d.decimal_comma else s, d.delimiter)
         why = None
         if len(toks) < ncol_min:
