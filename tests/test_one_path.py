@@ -19,7 +19,7 @@ FILES = sorted(str(p.relative_to(DATA)) for p in DATA.rglob("*.la[sz]")) if DATA
 
 def _run(f, out, tile_size):
     return trees_run(f, out / "t.gpkg", chm_out=out / "chm.tif",
-                     tiling=TilingOptions(tile_size=tile_size, workers=1),
+                     tiling=TilingOptions(tile_size=tile_size, workers=1, any_size=True),
                      out=OutputOptions(overwrite=True))
 
 

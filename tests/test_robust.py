@@ -7,15 +7,15 @@ from pyproj import CRS, Transformer
 from lidartrees_gis.cli import main
 
 
-@pytest.mark.parametrize("size", ["0.5", "1e-3", "19"])
+@pytest.mark.parametrize("size", ["0.5", "1e-3", "9"])
 def test_tiny_tiles_are_refused_at_once(size, tmp_path, capsys, data):
     """-tile_size 0.5 and 1e-3 ran until killed (millions of tiles): a tile smaller than 20
-    cells or than the buffer is refused, naming the smallest allowed."""
+    cells or than half the buffer is refused, naming the smallest allowed."""
     out = tmp_path / "c.tif"
     assert main(["chm", str(data("lidR_extdata/MixedConifer.laz")), str(out), "-tile_size", size,
                  "-q"]) == 1
     err = capsys.readouterr().err
-    assert "-tile_size" in err and "at least 20 m" in err and not out.exists()
+    assert "-tile_size" in err and "at least 10 m" in err and not out.exists()
 
 
 def test_missing_crs_hint_fits_the_coordinates(tmp_path, capsys):
@@ -125,3 +125,33 @@ def test_thousands_separators_are_read_and_named(tmp_path, capsys):
     assert main(["info", str(f), "-a_srs", "EPSG:31984", "-q"]) == 0
     c = capsys.readouterr()
     assert "412955.63" in c.out and "thousands" in c.err
+
+
+@pytest.mark.realdata
+def test_isolated_low_and_high_points_are_removed_and_counted(data, tmp_path, capsys):
+    """Two class-2 returns 500 m below the ground pulled the DTM down (and the canopy up) without
+    a word; three returns 10 km above the canopy must not reach the CHM either. Both are left
+    out and counted in outlier_points."""
+    import laspy
+    import rasterio
+
+    src = data("lidR_extdata/MixedConifer.laz")
+    base = tmp_path / "base.tif"
+    assert main(["chm", str(src), str(base), "-dtm_out", str(tmp_path / "bd.tif"), "-q"]) == 0
+    for kind, idx, dz in (("low", [5, 15000], -500.0), ("high", [100, 20000, 30000], 1e4)):
+        las = laspy.read(src)
+        z = np.asarray(las.z).copy()
+        if kind == "low":
+            idx = [int(i) for i in np.nonzero(np.asarray(las.classification) == 2)[0][[5, 900]]]
+        z[idx] += dz
+        las.z = z
+        las.update_header()
+        f = tmp_path / f"{kind}.laz"
+        las.write(str(f))
+        out = tmp_path / f"{kind}.tif"
+        assert main(["chm", str(f), str(out), "-dtm_out", str(tmp_path / f"{kind}_d.tif")]) == 0
+        assert f"outlier_points: {len(idx)}" in capsys.readouterr().out
+        with rasterio.open(out) as a, rasterio.open(base) as b:
+            assert abs(float(a.read(1, masked=True).max()) - float(b.read(1, masked=True).max())) < 0.01
+        with rasterio.open(tmp_path / f"{kind}_d.tif") as a, rasterio.open(tmp_path / "bd.tif") as b:
+            assert float(a.read(1, masked=True).min()) > float(b.read(1, masked=True).min()) - 0.01

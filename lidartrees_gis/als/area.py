@@ -288,27 +288,29 @@ def plan_area(area, surface: SurfaceOptions, tiling: TilingOptions, *, runner, p
     tops = [m["top"] for m in measures if np.isfinite(m["top"])]
     buf = tiling.buffer if tiling.buffer is not None else (
         buffer if buffer is not None else max(MIN_BUFFER, BUFFER_CROWNS * (cs or 0.0)))
-    check_tile_size(tiling.tile_size, ts, res, buf)
+    if not tiling.any_size:
+        check_tile_size(tiling.tile_size, ts, res, buf)
     tiles = tuple(make_tiles(area.extent, ts, buf))
     plan = AreaPlan(res, density, stats, cs, source, hd, max(tops) if tops else None,
                     len(windows), tiles, buf, ts)
     return plan, kept
 
 
-#: a given tile is at least this many cells a side (and twice the buffer)
+#: a given tile is at least this many cells a side (and half the buffer)
 MIN_TILE_CELLS = 20
 
 
 def check_tile_size(given, ts: float, res: float, buffer: float) -> None:
-    """Refuse a given ``-tile_size`` under ``max(MIN_TILE_CELLS cells, the buffer)``: such tiles
-    read several times more buffer than core (and 0.5 m tiles mean millions of them)."""
+    """Refuse a given ``-tile_size`` under ``max(MIN_TILE_CELLS cells, half the buffer)``: such
+    tiles read over nine times more buffer than core (and 0.5 m tiles mean millions of them)."""
     if given is None or not math.isfinite(ts):
         return
-    least = max(MIN_TILE_CELLS * res, buffer)
+    least = max(MIN_TILE_CELLS * res, buffer / 2)
     if float(given) < least:
         raise InputError(f"-tile_size {float(given):g} m is too small: tiles must be at least "
                          f"{least:g} m (the larger of {MIN_TILE_CELLS} cells of {res:g} m and "
-                         f"the {buffer:g} m buffer); use -tile_size auto or {math.ceil(least):g}")
+                         f"half the {buffer:g} m buffer); use -tile_size auto or "
+                         f"{math.ceil(least):g}")
 
 
 def _area_stats(stats: list) -> SurfaceStats:

@@ -212,10 +212,28 @@ class _Accumulators:
         return x, y, z
 
 
+#: the terrain points of -dtm ground / lowest:R more than this far below the second lowest
+#: of their 10 nearest (multipath, a deep noise return left in class 2) are left out
+LOW_DEPTH = 2.0
+
+
+def _without_low(acc, x, y, z, drop: bool):
+    """``(x, y, z)`` without the isolated low points (:data:`LOW_DEPTH`), counted in
+    ``acc.low_points``."""
+    if not drop:
+        return x, y, z
+    from ..ground.filter import low_points
+
+    low = low_points(np.asarray(x), np.asarray(y), np.asarray(z), LOW_DEPTH)
+    acc.low_points = int(low.sum())
+    return (x, y, z) if not low.any() else (x[~low], y[~low], z[~low])
+
+
 def _terrain(src, method: DtmMethod, acc: _Accumulators, spec: GridSpec, dsm_raw, fill, prog,
-             stats: SurfaceStats):
+             stats: SurfaceStats, drop_low: bool = True):
     """The DTM by ``method``: ``(dtm, kind)`` (``kind`` what ``auto`` chose: the area's choice
-    when ``stats`` says, unless this box holds too few ground points)."""
+    when ``stats`` says, unless this box holds too few ground points). ``drop_low``: leave the
+    isolated low terrain points out (:func:`_without_low`)."""
     kind = method.kind
     if kind == "auto":
         has_ground = int((acc.ground.count > 0).sum()) >= 3
@@ -231,9 +249,10 @@ def _terrain(src, method: DtmMethod, acc: _Accumulators, spec: GridSpec, dsm_raw
         if gx.size == 0:
             raise InputError(f"{src.path}: -dtm ground: the file has no ground (class 2) points; "
                              "use -dtm auto, lowest:R, kp or a DTM GeoTIFF")
-        return interpolate_tin(gx, gy, gz, spec), kind
+        return interpolate_tin(*_without_low(acc, gx, gy, gz, drop_low), spec), kind
     if kind == "lowest":
-        return interpolate_tin(*acc.lowest.points(reference=stats.lowest_median), spec), kind
+        pts = acc.lowest.points(reference=stats.lowest_median)
+        return interpolate_tin(*_without_low(acc, *pts, drop_low), spec), kind
     if kind == "kp":
         from ..ground.chain import dtm_from_ground, ground_points
         from ..ground.filter import KrausPfeifer
@@ -335,7 +354,9 @@ def compute_surfaces(src, res: float, opts: SurfaceOptions | None = None, *,
         reach = max(2.0, 3.0 * math.sqrt(spec.cell_area * occupied.sum() / acc.n))
     footprint = data_footprint(occupied, spec.res, reach)
     prog.update(0.82, "terrain")
-    dtm, kind = _terrain(src, method, acc, spec, dsm_raw, opts.fill, prog, stats)
+    acc.low_points = 0
+    dtm, kind = _terrain(src, method, acc, spec, dsm_raw, opts.fill, prog, stats,
+                         drop_low=opts.outliers)
     check_cancel(prog)
     chm_raw = dsm_raw - dtm
     out_cells, ceiling = np.zeros(spec.shape, bool), None
@@ -362,7 +383,8 @@ def compute_surfaces(src, res: float, opts: SurfaceOptions | None = None, *,
             "spec": spec, "res": res, "dtm_method": method.label(kind), "chm_method": opts.chm,
             "points": acc.n, "outside": acc.acc.outside, "dropped": dict(src.dropped),
             "density": acc.n / max(float(footprint.sum()) * spec.cell_area, 1e-9),
-            "outlier_cells": int(out_cells.sum()), "outlier_points": out_points, "stats": used}
+            "outlier_cells": int(out_cells.sum()), "outlier_points": out_points + acc.low_points,
+            "stats": used}
 
 
 def box_surfaces(area, box, res: float, opts: SurfaceOptions, *, stats=None,

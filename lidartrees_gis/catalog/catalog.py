@@ -116,12 +116,16 @@ class TilingOptions:
         area); 1: this process.
     scheduler : str, optional
         Address of an existing Dask scheduler to run the tiles on.
+    any_size : bool
+        Accept any given tile size (tests of the tiling on small files); by default a tile under
+        20 cells or half the buffer is refused (:func:`lidartrees_gis.als.area.check_tile_size`).
     """
 
     tile_size: float | None = None
     buffer: float | None = None
     workers: int | None = None
     scheduler: str | None = None
+    any_size: bool = False
 
     def __post_init__(self):
         ts = self.tile_size
