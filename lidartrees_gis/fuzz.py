@@ -65,7 +65,19 @@ _TOKENS = ["nan", "inf", "-inf", "1e400", "1e300", "-1e300", "5e-324", "0x10", "
 
 def _mutate_text(rng, text):
     lines = text.split("\n")
-    kind = int(rng.integers(0, 12))
+    kind = int(rng.integers(0, 13))
+    if kind == 12:  # pt-BR numbers: '.' between thousands and a decimal comma (412.955,63)
+        def br(v):
+            whole, frac = f"{float(v):.2f}".split(".")
+            return f"{int(whole):,}".replace(",", ".") + "," + frac
+        out = [lines[0]]
+        for ln in lines[1:]:
+            parts = ln.split("\t")
+            try:
+                out.append("\t".join(br(p_) for p_ in parts))
+            except ValueError:
+                out.append(ln)
+        return "\n".join(out), kind
     if kind == 0:  # random bytes in the middle
         i = int(rng.integers(0, len(text)))
         return (text[:i] + "".join(chr(int(c)) for c in rng.integers(0, 0x3000, 20)) + text[i:]), kind
@@ -104,7 +116,33 @@ def _mutate_text(rng, text):
 
 def _mutate_las(rng, data: bytes):
     b = bytearray(data)
-    kind = int(rng.integers(0, 9))
+    kind = int(rng.integers(0, 11))
+    if kind == 9 and b[104] & 0x80 and len(b) > 400:  # LAZ: the chunk table the decoder trusts
+        off, = struct.unpack_from("<I", b, 96)
+        ct, = struct.unpack_from("<q", b, off)
+        which = int(rng.integers(0, 4))
+        if which == 0:  # where it is
+            struct.pack_into("<q", b, off, int(rng.integers(-2, 2 ** 40)))
+        elif 0 < ct < len(b) - 8:
+            if which == 1:  # its version and chunk count
+                struct.pack_into("<II", b, ct, int(rng.choice([0, 1, 2 ** 32 - 1])),
+                                 int(rng.choice([0, 1, 2, 10 ** 6, 2 ** 32 - 1])))
+            elif which == 2:  # its entries
+                b[ct + 8:] = bytes(rng.integers(0, 256, len(b) - ct - 8, dtype=np.uint8))
+            else:  # overwritten
+                b[ct:ct + 64] = b"\xff" * min(64, len(b) - ct)
+        return bytes(b), kind
+    if kind == 10:  # header fields one by one: offset to points doubled, record length, VLRs
+        field = int(rng.integers(0, 3))
+        if field == 0:
+            off, = struct.unpack_from("<I", b, 96)
+            struct.pack_into("<I", b, 96, min(2 * off, 2 ** 32 - 1))
+        elif field == 1:
+            rl, = struct.unpack_from("<H", b, 105)
+            struct.pack_into("<H", b, 105, int(rl + rng.choice([-4, -1, 1, 4])) & 0xFFFF)
+        else:
+            struct.pack_into("<I", b, 100, int(rng.choice([0, 1, 5, 2 ** 20])))
+        return bytes(b), kind
     if kind == 0:  # truncate
         return bytes(b[: int(rng.integers(0, len(b)))]), kind
     if kind == 1:  # random bytes anywhere
@@ -150,7 +188,8 @@ _COMMANDS = [
 _BAD_ARGS = [["-tr", "0"], ["-tr", "-1"], ["-tr", "5e-324"], ["-tr", "nan"], ["-tr", "0.001"],
              ["-tr", "1e9"], ["-a_srs", "EPSG:999999"], ["-a_srs", "garbage"],
              ["-t_srs", "EPSG:4326"], ["-s_srs", "EPSG:29193"], ["-co", "COMPRESS=NOPE"],
-             ["-co", "=="], ["--columns", "x,y"], ["--columns", "z,z,z"], ["--delimiter", ";"], ["--delimiter", "abc"]]
+             ["-co", "=="], ["--columns", "x,y"], ["--columns", "z,z,z"], ["--delimiter", ";"], ["--delimiter", "abc"],
+             ["-tile_size", "0.5"], ["-tile_size", "1e-3"], ["-tile_size", "1e9"]]
 
 
 def _flags(command):
