@@ -183,7 +183,8 @@ def evaluate(detected, reference, **kw):
     return evaluate_file(detected, reference, kw.get("report"), layer=kw.get("layer") or None,
                          ref_layer=kw.get("ref_layer") or None,
                          max_dist=2.5 if md is None else md, max_dz=5.0 if mz is None else mz,
-                         overwrite=bool(kw.get("overwrite")), progress=kw.get("progress"))
+                         area=kw.get("area") or None, overwrite=bool(kw.get("overwrite")),
+                         progress=kw.get("progress"))
 
 
 def demo(outdir=None, **kw):

@@ -370,6 +370,9 @@ COMMANDS = {
                flag="-layer", advanced=True),
          Param("ref_layer", "str", "Layer of the reference file (default: the first)",
                flag="-ref_layer", advanced=True),
+         Param("area", "str", "Where the reference was measured: xmin,ymin,xmax,ymax or a "
+               "polygon file (PATH or PATH:LAYER); detections outside it are not false "
+               "positives, references outside it are left out", flag="-area"),
          OVERWRITE), "evaluate", outputs=("report",)),
     "demo": Command(
         "demo", "Demo", "Generate a synthetic eucalyptus stand with known trees and process it",

@@ -186,12 +186,56 @@ def read_trees(path, *, layer=None) -> dict:
             "crs": gdf.crs.to_wkt() if gdf.crs else None, "n": len(gdf), "layer": layer}
 
 
+def read_area(area, crs_wkt=None):
+    """The reference's area: ``xmin,ymin,xmax,ymax`` or a polygon vector file (``PATH`` or
+    ``PATH:LAYER``; every polygon, joined; reprojected to ``crs_wkt`` when both have a CRS).
+    Returns ``(shapely geometry, description)``."""
+    import shapely
+    from pathlib import Path
+
+    text = str(area).strip()
+    parts = [t for t in text.replace(";", ",").split(",")]
+    if len(parts) == 4:
+        try:
+            x0, y0, x1, y1 = (float(t) for t in parts)
+        except ValueError:
+            x0 = None
+        if x0 is not None:
+            if not (x1 > x0 and y1 > y0):
+                raise InputError(f"-area: expected xmin,ymin,xmax,ymax with xmin < xmax and "
+                                 f"ymin < ymax, got {text!r}")
+            return shapely.box(x0, y0, x1, y1), f"box {x0:g},{y0:g},{x1:g},{y1:g}"
+    path, layer = text, None
+    if not Path(path).exists() and ":" in text:
+        path, layer = text.rsplit(":", 1)
+    if not Path(path).exists():
+        raise InputError(f"-area: {text}: neither xmin,ymin,xmax,ymax nor a vector file")
+    import geopandas as gpd
+
+    try:
+        gdf = gpd.read_file(path, layer=layer)
+    except Exception as exc:  # noqa: BLE001
+        raise ReadError(f"-area: {path}: cannot read as a vector file ({exc})") from None
+    gdf = gdf[gdf.geometry.notna() & gdf.geometry.geom_type.isin(["Polygon", "MultiPolygon"])]
+    if gdf.empty:
+        raise InputError(f"-area: {text}: no polygon in it")
+    if crs_wkt and gdf.crs is not None:
+        gdf = gdf.to_crs(crs_wkt)
+    geom = shapely.make_valid(shapely.union_all(gdf.geometry.values))
+    return geom, f"{path}{':' + layer if layer else ''} ({len(gdf)} polygon(s), {geom.area:.0f} m²)"
+
+
 def evaluate_file(detected, reference, output=None, *, layer=None, ref_layer=None,
-                  max_dist: float = MAX_DIST, max_dz: float = MAX_DZ, overwrite=False,
+                  max_dist: float = MAX_DIST, max_dz: float = MAX_DZ, area=None, overwrite=False,
                   progress=None) -> dict:
     """``lidartrees evaluate``: match the tree tops of ``detected`` to ``reference`` (Eysn et al.
     2015) and report recall, precision, F and height bias / RMSE for all and dominant trees;
-    optionally write the report as JSON (``.json``) or the matched pairs as CSV (``.csv``)."""
+    optionally write the report as JSON (``.json``) or the matched pairs as CSV (``.csv``).
+
+    ``area``: where the reference was measured (``xmin,ymin,xmax,ymax`` or a polygon file, see
+    :func:`read_area`): detections outside it are not false positives (a 50 m plot inside a
+    larger flight), and references outside it are left out. A detection up to ``max_dist``
+    outside may still match a reference tree inside."""
     import json
 
     from ..io.output import atomic_output, check_output
@@ -209,12 +253,17 @@ def evaluate_file(detected, reference, output=None, *, layer=None, ref_layer=Non
 
         if not CRS.from_wkt(det["crs"]).equals(CRS.from_wkt(ref["crs"]), ignore_axis_order=True):
             raise InputError(f"{reference}: CRS differs from {detected}'s; reproject one of them")
+    area_note = None
+    if area is not None:
+        det, ref, area_note = _within_area(det, ref, area, max_dist, max_dz)
     r = evaluate_trees(det["x"], det["y"], det["height"], ref["x"], ref["y"], ref["height"],
                        max_dist=max_dist, max_dz=max_dz)
     d, rr = r.pop("pairs")
     report = {"detected_file": str(detected), "reference_file": str(reference),
               "matching": f"Eysn et al. 2015: tallest reference first, <= {max_dist:g} m "
                           f"horizontally, <= {max_dz:g} m in height", **r}
+    if area_note:
+        report["area"] = area_note
     if output is not None:
         with atomic_output(output, overwrite) as tmp:
             if str(output).lower().endswith(".csv"):
@@ -231,6 +280,35 @@ def evaluate_file(detected, reference, output=None, *, layer=None, ref_layer=Non
         report["output"] = str(output)
     report["table"] = format_report(report)
     return report
+
+
+def _within_area(det, ref, area, max_dist, max_dz):
+    """The detections and references an area evaluation counts: references inside the area;
+    detections inside it, and those up to ``max_dist`` outside that match a reference inside
+    (an unmatched detection outside is not a false positive; leaving it out changes no match,
+    since the matching only ever takes free detections)."""
+    import shapely
+
+    geom, text = read_area(area, det.get("crs") or ref.get("crs"))
+    pick = lambda t, m: {**t, "x": t["x"][m], "y": t["y"][m], "n": int(m.sum()),  # noqa: E731
+                         "height": None if t["height"] is None else t["height"][m]}
+    rin = shapely.contains_xy(geom, ref["x"], ref["y"])
+    if not rin.any():
+        raise InputError(f"-area: no reference tree inside {text}")
+    ref = pick(ref, rin)
+    near = shapely.contains_xy(shapely.buffer(geom, max_dist), det["x"], det["y"])
+    inside = shapely.contains_xy(geom, det["x"], det["y"])
+    cand = pick(det, near)
+    r = evaluate_trees(cand["x"], cand["y"], cand["height"], ref["x"], ref["y"], ref["height"],
+                       max_dist=max_dist, max_dz=max_dz)
+    matched = np.zeros(cand["n"], bool)
+    matched[r["pairs"][0]] = True
+    keep = np.zeros(det["x"].size, bool)
+    keep[np.nonzero(near)[0][matched | inside[near]]] = True
+    note = {"area": text, "reference_trees_inside": int(rin.sum()),
+            "reference_trees_outside": int((~rin).sum()),
+            "detections_counted": int(keep.sum()), "detections_left_out": int((~keep).sum())}
+    return pick(det, keep), ref, note
 
 
 def format_report(report: dict) -> str:
