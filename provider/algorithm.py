@@ -203,7 +203,7 @@ LABELS = {
     "prefix": "Output prefix", "reclassify": "Reclassify other classes too",
     "reference": "Reference trees", "refine": "Densification passes",
     "reference_dtm": "Reference ground (DTM GeoTIFF; auto = class-2 points; none)",
-    "rule": "Boundary rule",
+    "rule": "Boundary rule", "area": "Reference area (xmin,ymin,xmax,ymax or polygons)",
     "res": "Cell size", "scheduler": "Dask scheduler address",
     "skip_invalid": "Skip malformed text lines", "slope": "Slope tolerance factor",
     "smooth": "Smoothing", "spacing": "Planting spacing (rows x trees)",
