@@ -155,3 +155,20 @@ def test_isolated_low_and_high_points_are_removed_and_counted(data, tmp_path, ca
             assert abs(float(a.read(1, masked=True).max()) - float(b.read(1, masked=True).max())) < 0.01
         with rasterio.open(tmp_path / f"{kind}_d.tif") as a, rasterio.open(tmp_path / "bd.tif") as b:
             assert float(a.read(1, masked=True).min()) > float(b.read(1, masked=True).min()) - 0.01
+
+
+@pytest.mark.realdata
+def test_one_point_far_from_the_rest_is_named_not_a_hang(data, tmp_path, capsys):
+    """A LAS with one point 100 km east of the rest: a clear refusal saying why, at once."""
+    import laspy
+
+    las = laspy.read(data("lidR_extdata/MixedConifer.laz"))
+    x = np.asarray(las.x).copy()
+    x[0] += 100_000
+    las.x = x
+    las.update_header()
+    f = tmp_path / "far.las"
+    las.write(str(f))
+    assert main(["trees", str(f), str(tmp_path / "t.gpkg"), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert "far from the rest" in err and "100,090" in err and "-tr" in err

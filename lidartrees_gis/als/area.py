@@ -208,6 +208,14 @@ def _resolution(area, surface: SurfaceOptions, tiling: TilingOptions, rule: str,
     if not surface.auto_res:
         return float(surface.res), density, windows
     if not np.isfinite(density):
+        x0, y0, x1, y1 = area.extent
+        if len(windows) > 1 and area.count >= 100:  # windows across a wide extent found nothing
+            raise InputError(
+                f"{area.label()}: -tr auto: none of the {len(windows)} windows the density is "
+                f"measured on across the {x1 - x0:,.0f} x {y1 - y0:,.0f} m extent holds points: "
+                f"the {area.count:,} points are not spread over it (a few points far from the "
+                "rest? `lidartrees info` gives the bounds); give -tr RES, and drop the stray "
+                "points or their file")
         raise InputError(f"{area.label()}: -tr auto needs a point density, and the points cover "
                          "no area (none, all at one location or on a line); give -tr RES")
     if rule == "density":  # seed 003's sqrt(1/n), grids and DTMs
