@@ -22,6 +22,15 @@ except ImportError:  # pragma: no cover
     HAVE_NUMBA = False
 
 
+def kernels_cached() -> bool:
+    """Whether numba's on-disk cache of these kernels exists (False before the first run after
+    an install: the kernels are compiled then, once, and cached beside the package)."""
+    import glob
+
+    here = os.path.dirname(os.path.abspath(__file__))
+    return bool(glob.glob(os.path.join(here, "__pycache__", "_accel.*.nbi")))
+
+
 def _jit(fn):
     if HAVE_NUMBA:
         return numba.njit(cache=True, nogil=True)(fn)

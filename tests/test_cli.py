@@ -194,3 +194,20 @@ def test_results_are_plain_lines_on_stdout_even_with_q(tmp_path, capsys):
     assert "accuracy.recall: 0.997" in c.out and "\r" not in c.err
     assert main(["info", str(out / "stand.xyz"), "-a_srs", "EPSG:29194", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["points"] > 80000
+
+
+def test_first_run_note_only_without_the_kernel_cache(monkeypatch, capsys):
+    """Issue 25: the first run after an install compiles the numba kernels; a person at a
+    terminal is told so in one line, once (the cache then exists)."""
+    from lidartrees_gis import _accel
+    from lidartrees_gis.cli.app import _first_run_note
+
+    if not _accel.HAVE_NUMBA:
+        pytest.skip("numba not importable")
+    monkeypatch.setattr(_accel, "kernels_cached", lambda: False)
+    _first_run_note()
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and "compiling the numba kernels once" in err[0]
+    monkeypatch.setattr(_accel, "kernels_cached", lambda: True)
+    _first_run_note()
+    assert capsys.readouterr().err == ""

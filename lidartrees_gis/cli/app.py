@@ -163,6 +163,8 @@ def main(argv=None) -> int:
 
     warnings.showwarning = _show
     warnings.simplefilter("default", DataWarning)
+    if cmd.name not in ("info", "evaluate") and not args.quiet and sys.stderr.isatty():
+        _first_run_note()  # for someone waiting at a terminal
     try:
         res = cmd.run(**kw, progress=progress)
     except Cancelled:
@@ -185,6 +187,16 @@ def main(argv=None) -> int:
     if not args.progress_lines:  # QGIS reads --result-json
         _print_result(cmd.name, res, as_json)
     return 0
+
+
+def _first_run_note() -> None:
+    """One line on stderr on the first run after an install: numba compiles the kernels then
+    (tens of seconds, once) and caches them for every later run."""
+    from .. import _accel
+
+    if _accel.HAVE_NUMBA and not _accel.kernels_cached():
+        print("lidartrees: first run after installing: compiling the numba kernels once (about "
+              "30 s; cached for every later run)", file=sys.stderr)
 
 
 def _error_text(exc) -> str:
