@@ -195,8 +195,8 @@ def _first_run_note() -> None:
     from .. import _accel
 
     if _accel.HAVE_NUMBA and not _accel.kernels_cached():
-        print("lidartrees: first run after installing: compiling the numba kernels once (about "
-              "30 s; cached for every later run)", file=sys.stderr)
+        print("lidartrees: first run after installing: compiling the numba kernels once (10-40 "
+              "s; cached for every later run)", file=sys.stderr)
 
 
 def _error_text(exc) -> str:
