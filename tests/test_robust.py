@@ -172,3 +172,14 @@ def test_one_point_far_from_the_rest_is_named_not_a_hang(data, tmp_path, capsys)
     assert main(["trees", str(f), str(tmp_path / "t.gpkg"), "-q"]) == 1
     err = capsys.readouterr().err
     assert "far from the rest" in err and "100,090" in err and "-tr" in err
+
+
+@pytest.mark.realdata
+def test_a_single_file_with_scheduler_says_why_it_runs_here(data, tmp_path, capsys):
+    """A single small file with --scheduler ran locally without a word: it is one tile, run in
+    this process, and a warning says so (no connection is tried)."""
+    out = tmp_path / "t.gpkg"
+    assert main(["trees", str(data("lidR_extdata/MixedConifer.laz")), str(out),
+                 "--scheduler", "tcp://127.0.0.1:9", "-q"]) == 0
+    err = capsys.readouterr().err
+    assert "one tile, run in this process" in err and "--scheduler tcp://127.0.0.1:9" in err

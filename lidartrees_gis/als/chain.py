@@ -29,7 +29,7 @@ from ..io.options import ReadOptions, filter_report
 from ..io.output import OutputOptions, atomic_output, check_outputs
 from ..io.provenance import raster_tags, repro_meta, repro_report
 from ..progress import SubProgress, as_progress
-from .area import AreaPlan, plan_area
+from .area import AreaPlan, one_tile_area, plan_area
 from .sinks import GpkgTreeLayers, QuickLook, Tally, TreeLayers, TreesSummary, TreexCsv
 from .surfaces import SurfaceOptions, box_surfaces
 from .tile import tile_trees, warn_sparse_plantation
@@ -47,9 +47,20 @@ def open_area(input, read: ReadOptions | None = None):
 
 def runner_for(area, tiling: TilingOptions) -> TileRunner:
     """Where the tiles of ``area`` run: a local Dask cluster or an existing one, or this process
-    (small areas, one tile)."""
+    (small areas, one tile: with ``--scheduler`` too, and a warning says why)."""
     workers = default_workers(tiling.workers, tiling.scheduler, area.count)
-    return TileRunner(workers, tiling.scheduler)
+    scheduler = tiling.scheduler
+    if scheduler and tiling.tile_size is None and one_tile_area(area):
+        import warnings
+
+        from ..errors import DataWarning
+
+        warnings.warn(DataWarning(
+            f"{area.label()}: {area.count:,} points make one tile, run in this process "
+            f"(--scheduler {scheduler} is used for areas of several tiles; give -tile_size to "
+            "cut this one)"), stacklevel=2)
+        scheduler = None
+    return TileRunner(workers, scheduler)
 
 
 def run_tiles(runner: TileRunner, fn, plan: AreaPlan, args, ready=None, progress=None):
