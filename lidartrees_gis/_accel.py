@@ -249,12 +249,14 @@ def _raster_triangles_np(px, py, pz, tri, max_edge, left, top, res, height, widt
         inside = (l1 >= eps) & (l2 >= eps) & (l3 >= eps)
         v = (l1 * A[2] + l2 * B[2] + l3 * C[2]) / d
         inside &= v == v
-        ii, jj, v = ii[inside], jj[inside], v[inside]
-        cur = np.full(out.shape, -np.inf)
-        np.maximum.at(cur, (ii, jj), v)
-        hit = cur > -np.inf
-        old = out[hit]
-        out[hit] = np.where(np.isnan(old) | (cur[hit] > old), cur[hit], old)
+        # the highest value per cell (sorted by cell, then value: the last of each run)
+        lin, v = ii[inside] * width + jj[inside], v[inside]
+        o = np.lexsort((v, lin))
+        lin, v = lin[o], v[o]
+        last = np.r_[lin[1:] != lin[:-1], True] if lin.size else np.zeros(0, bool)
+        r, c, v = lin[last] // width, lin[last] % width, v[last]
+        old = out[r, c]
+        out[r, c] = np.where(np.isnan(old) | (v > old), v, old)
     return drawn
 
 

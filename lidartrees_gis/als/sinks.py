@@ -163,8 +163,8 @@ def gap_arrays(st: dict, res: float, tile) -> dict:
     (:func:`lidartrees_gis.als.stocking.crew_numbers`, on the tile's own lattice)."""
     gx, gy = np.asarray(st["gaps_x"], float), np.asarray(st["gaps_y"], float)
     return {"gap_id": tree_ids(gx, gy, res),
-            "row_number": np.asarray(st.get("gaps_row", []), np.int64),
-            "plant_number": np.asarray(st.get("gaps_plant", []), np.int64), "x": gx, "y": gy,
+            "row_number": np.asarray(st["gaps_row"], np.int64),
+            "plant_number": np.asarray(st["gaps_plant"], np.int64), "x": gx, "y": gy,
             "tile": np.full(gx.size, "_".join(map(str, tile)), dtype=object)}
 
 
@@ -307,8 +307,8 @@ class GpkgTreeLayers(TreeLayers):
         if plantation and self.names["gaps"] not in self.created | self.existing:
             import shapely
 
-            g = gap_arrays({"gaps_x": [], "gaps_y": [], "gaps_i": [], "gaps_j": [],
-                            "gaps_row": [], "gaps_plant": []}, 1.0, ())
+            g = gap_arrays({"gaps_x": [], "gaps_y": [], "gaps_row": [], "gaps_plant": []}, 1.0,
+                           ())
             self._raw(shapely.to_wkb(shapely.points(g["x"], g["y"])), g, self.names["gaps"],
                       "Point")
         with warnings.catch_warnings():

@@ -180,10 +180,9 @@ def crew_numbers(grid: PlantingGrid, i, j) -> tuple:
     if ii.size == 0:
         return ii, ii, ""
     row = jj - jj.min() + 1
-    first = {}
-    for r, k in zip(row.tolist(), ii.tolist()):
-        first[r] = min(first.get(r, k), k)
-    plant = ii - np.array([first[r] for r in row.tolist()]) + 1
+    first = np.full(int(row.max()) + 1, np.iinfo(np.int64).max)
+    np.minimum.at(first, row, ii)  # each row's first position
+    plant = ii - first[row] + 1
     text = (f"row 1 on the {_compass(run - 90.0)} side (rows run {_compass(run + 180.0)} to "
             f"{_compass(run)}, at {run % 360.0:.1f}°), plant 1 at the {_compass(run + 180.0)} "
             "end of each row")

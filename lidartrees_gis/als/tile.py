@@ -153,8 +153,7 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
     out["planting"] = r.get("planting_detected")
     out["stocking"] = None if st is None else {
         **{k: st[k] for k in ("expected", "stocked", "missing", "extra", "planted_area_ha",
-                              "gaps_x", "gaps_y", "gaps_i", "gaps_j", "gaps_row",
-                              "gaps_plant", "numbering")},
+                              "gaps_x", "gaps_y", "gaps_row", "gaps_plant", "numbering")},
         "azimuth": st["grid"].azimuth}
     out["wkb"] = shapely.to_wkb(np.asarray(polys, dtype=object)) if idx.size else []
     out["top_wkb"] = shapely.to_wkb(shapely.points(out["x"], out["y"])) if idx.size else []
