@@ -7,15 +7,18 @@ from pyproj import CRS, Transformer
 from lidartrees_gis.cli import main
 
 
-@pytest.mark.parametrize("size", ["0.5", "1e-3", "9"])
+@pytest.mark.parametrize("size", ["0.5", "1e-3", "9", "39"])
 def test_tiny_tiles_are_refused_at_once(size, tmp_path, capsys, data):
     """-tile_size 0.5 and 1e-3 ran until killed (millions of tiles): a tile smaller than 20
-    cells or than half the buffer is refused, naming the smallest allowed."""
+    cells or than twice the buffer (chm: 20 m) is refused, naming the smallest allowed."""
     out = tmp_path / "c.tif"
     assert main(["chm", str(data("lidR_extdata/MixedConifer.laz")), str(out), "-tile_size", size,
                  "-q"]) == 1
     err = capsys.readouterr().err
-    assert "-tile_size" in err and "at least 10 m" in err and not out.exists()
+    assert "-tile_size" in err and "at least 40 m" in err and not out.exists()
+    if size == "39":  # a smaller buffer allows it
+        assert main(["chm", str(data("lidR_extdata/MixedConifer.laz")), str(out), "-tile_size",
+                     size, "-buffer", "15", "-q"]) == 0 and out.exists()
 
 
 def test_missing_crs_hint_fits_the_coordinates(tmp_path, capsys):

@@ -21,7 +21,8 @@ from ..catalog.catalog import Catalog, TilingOptions
 from ..catalog.inputs import is_catalog_input
 from ..catalog.mosaic import MosaicWriter
 from ..catalog.raster import RasterArea, is_raster
-from ..catalog.runner import TileRunner, default_workers
+from ..catalog.checkpoint import Checkpoint, run_fingerprint
+from ..catalog.runner import FailedTiles, TileRunner, default_workers, tile_name
 from ..crs import crs_label
 from ..errors import InputError
 from ..grid import GridSpec
@@ -60,7 +61,63 @@ def runner_for(area, tiling: TilingOptions) -> TileRunner:
             f"(--scheduler {scheduler} is used for areas of several tiles; give -tile_size to "
             "cut this one)"), stacklevel=2)
         scheduler = None
-    return TileRunner(workers, scheduler)
+    return TileRunner(workers, scheduler, on_error=tiling.on_error)
+
+
+@contextlib.contextmanager
+def kept_tiles(runner: TileRunner, output, tiling: TilingOptions, plan: AreaPlan, *parts):
+    """While a run of several tiles writes ``output``: each tile's result is kept beside it
+    (:class:`~lidartrees_gis.catalog.checkpoint.Checkpoint`), so ``-resume`` continues a killed
+    run; removed once the outputs are written and no tile failed. ``parts``: what makes the
+    run's tiles (the area, the options) beside the plan."""
+    if runner.scheduler and runner.client is not None:
+        runner.check_readable(parts[0].files if isinstance(parts[0], Catalog) else ())
+    if output is None or len(plan.tiles) < 2:
+        if tiling.resume:
+            _warn(f"-resume: {'no output file' if output is None else 'one tile'}, nothing kept "
+                  "to resume from; the run starts from the beginning")
+        yield None
+        return
+    area = parts[0]
+    files = [str(f) for f in getattr(area, "files", [])]
+    read = area.read.describe() if isinstance(area, Catalog) else None
+    ck = Checkpoint.beside(output, run_fingerprint(files, __version__, read, *parts[1:], plan),
+                           tiling.resume)
+    runner.checkpoint = ck
+    try:
+        yield ck
+    except BaseException:
+        done = ck.done()
+        if done:
+            _warn(f"{done} of {len(plan.tiles)} tiles are kept in {ck.folder}: the same command "
+                  "with -resume continues from them")
+        raise
+    finally:
+        runner.checkpoint = None
+    if ck.resumed:
+        _warn(f"-resume: {ck.resumed} of {len(plan.tiles)} tiles were taken from the killed run")
+    if runner.failed:
+        _warn(f"{ck.done()} of {len(plan.tiles)} tiles are kept in {ck.folder}: once the failed "
+              "tiles are fixed, the same command with -resume -overwrite runs only those")
+    else:
+        ck.finish()
+
+
+def check_failed(runner: TileRunner, result: dict) -> dict:
+    """``result``, or :class:`~lidartrees_gis.catalog.runner.FailedTiles` (holding it) when
+    tiles were left out (``-on_error skip``)."""
+    if runner.failed:
+        result["failed_tiles"] = [tile_name(e.item) for e in runner.failed]
+        raise FailedTiles(runner.failed, result)
+    return result
+
+
+def _warn(message: str) -> None:
+    import warnings
+
+    from ..errors import DataWarning
+
+    warnings.warn(DataWarning(message), stacklevel=3)
 
 
 def run_tiles(runner: TileRunner, fn, plan: AreaPlan, args, ready=None, progress=None):
@@ -138,7 +195,8 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
         if p.spacing is not None and isinstance(area, Catalog):
             warn_sparse_plantation(_density(area, plan, ready, runner))
         summary = TreesSummary()
-        with contextlib.ExitStack() as stack:
+        with kept_tiles(runner, output, tiling, plan, area, p, surface, bool(chm_out or png),
+                        png, csv, chm_out), contextlib.ExitStack() as stack:
             sinks = _trees_sinks(stack, input, output, area, p, plan, surface, out, csv, chm_out,
                                  png)
             args = (area, p, plan, surface, bool(chm_out or png))
@@ -159,7 +217,8 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
         if png:
             sinks["quicklook"].write(png, _title(row, input), out.overwrite)
     prog.update(1.0, "done")
-    return _trees_result(output, area, plan, summary, row, p, sinks["layers"], surface)
+    return check_failed(runner, _trees_result(output, area, plan, summary, row, p,
+                                              sinks["layers"], surface))
 
 
 def _density(area, plan: AreaPlan, ready, runner) -> float:

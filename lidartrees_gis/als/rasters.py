@@ -13,7 +13,7 @@ from ..io.output import OutputOptions, atomic_output, check_outputs
 from ..io.provenance import raster_tags
 from ..progress import SubProgress, as_progress
 from .area import MIN_BUFFER, plan_area
-from .chain import _result, run_tiles, runner_for
+from .chain import _result, check_failed, kept_tiles, run_tiles, runner_for
 from .sinks import Tally
 from .surfaces import SurfaceOptions
 from .tile import tile_grid, tile_surfaces
@@ -63,7 +63,8 @@ def chm_run(input, output, *, surface: SurfaceOptions | None = None,
         plan, ready = plan_area(area, surface, tiling, runner=runner, buffer=MIN_BUFFER,
                                 keep=True, progress=SubProgress(prog, 0.02, 0.45))
         gspec = GridSpec.from_bounds(*area.extent, plan.res, crs=area.crs)
-        with contextlib.ExitStack() as stack:
+        with kept_tiles(runner, output, tiling, plan, area, surface, tuple(
+                k for k, v in paths.items() if v)), contextlib.ExitStack() as stack:
             mosaics = {}
             for key, path in paths.items():
                 if path:
@@ -85,8 +86,8 @@ def chm_run(input, output, *, surface: SurfaceOptions | None = None,
             for mos in mosaics.values():
                 mos.set_tags(raster_tags("chm", area, params, input))
     prog.update(1.0, "done")
-    return {"output": str(output), **_result(area, plan, tally), "shape": gspec.shape,
-            "dtm": params["dtm"], "chm": surface.chm}
+    return check_failed(runner, {"output": str(output), **_result(area, plan, tally),
+                                 "shape": gspec.shape, "dtm": params["dtm"], "chm": surface.chm})
 
 
 def grid_run(input, output, *, res="auto", stat: str = "max", fill: str = "none",
@@ -117,7 +118,8 @@ def grid_run(input, output, *, res="auto", stat: str = "max", fill: str = "none"
         gspec = GridSpec.from_bounds(*area.extent, plan.res, crs=area.crs)
         params = {"res": plan.res, "stat": stat, **({} if stat == "count" else {"fill": fill})}
         count = stat == "count"
-        with atomic_output(output, out.overwrite) as tmp:
+        with kept_tiles(runner, output, tiling, plan, area, surface, stat), \
+                atomic_output(output, out.overwrite) as tmp:
             mos = MosaicWriter(tmp, gspec, creation_options=out.creation_options,
                                tags=raster_tags("grid", area, params, input),
                                description="count" if count else f"z {stat}",
@@ -133,4 +135,5 @@ def grid_run(input, output, *, res="auto", stat: str = "max", fill: str = "none"
             finally:
                 mos.close()
     prog.update(1.0, "done")
-    return {"output": str(output), **_result(area, plan, tally), "shape": gspec.shape}
+    return check_failed(runner, {"output": str(output), **_result(area, plan, tally),
+                                 "shape": gspec.shape})

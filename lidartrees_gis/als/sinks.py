@@ -35,6 +35,18 @@ def stocking_fields(spacing, azimuth: float, st: dict) -> dict:
             "planted_area_ha": st["planted_area_ha"]}
 
 
+def axial_mean(azimuths, weights=None) -> float:
+    """The mean of row azimuths (degrees, an axis: 0 and 180 are the same rows) weighted by
+    ``weights``, in [0, 180). A median or plain mean of tiles at 179.9 and 0.1 gave 90."""
+    a = np.radians(2.0 * np.asarray(azimuths, float))
+    w = np.ones_like(a) if weights is None else np.asarray(weights, float)
+    if not np.isfinite(a).any() or w.sum() <= 0:
+        return float("nan")
+    ok = np.isfinite(a)
+    ang = 0.5 * np.degrees(np.arctan2((w[ok] * np.sin(a[ok])).sum(), (w[ok] * np.cos(a[ok])).sum()))
+    return round(float(ang % 180.0), 3) % 180.0
+
+
 class Tally:
     """Points read (with the buffers), outliers removed and points per dropped class, summed over
     the tiles of any chain."""
@@ -80,7 +92,7 @@ class TreesSummary(Tally):
         if st is not None:
             for k in self.STOCK:
                 self.stock[k] += st[k]
-            self.azimuths.append(st["azimuth"])
+            self.azimuths.append((st["azimuth"], st["expected"]))
             if st.get("numbering") and st["expected"] >= self.numbered:  # the largest tile's
                 self.numbering, self.numbered = st["numbering"], st["expected"]
 
@@ -127,7 +139,7 @@ class TreesSummary(Tally):
                "gap_trees": self.gap_trees, "planting_detected": self.planting,
                "planting_tiles": len(self.lattices)}
         if params.spacing is not None:  # plantation mode: the stocking of all tiles
-            az = float(np.median(self.azimuths)) if self.azimuths else np.nan
+            az = axial_mean(*zip(*self.azimuths)) if self.azimuths else np.nan
             row.update(stocking_fields(params.spacing, az, self.stock))
             # how row_number and plant_number count (tiled runs: each tile's own lattice)
             row["numbering"] = self.numbering + (" (each tile counts its own)"

@@ -118,7 +118,12 @@ class TilingOptions:
         Address of an existing Dask scheduler to run the tiles on.
     any_size : bool
         Accept any given tile size (tests of the tiling on small files); by default a tile under
-        20 cells or half the buffer is refused (:func:`lidartrees_gis.als.area.check_tile_size`).
+        20 cells or twice the buffer is refused (:func:`lidartrees_gis.als.area.check_tile_size`).
+    on_error : {'stop', 'skip'}
+        A tile that fails (twice on Dask) stops the run, leaving no output (``stop``), or is
+        left out while the others are written and the run then fails naming it (``skip``).
+    resume : bool
+        Continue a killed run from the tiles it kept beside its output.
     """
 
     tile_size: float | None = None
@@ -126,6 +131,8 @@ class TilingOptions:
     workers: int | None = None
     scheduler: str | None = None
     any_size: bool = False
+    on_error: str = "stop"
+    resume: bool = False
 
     def __post_init__(self):
         ts = self.tile_size
@@ -158,6 +165,10 @@ class TilingOptions:
                 raise InputError(f"-workers must be >= 1, got {self.workers!r}")
             object.__setattr__(self, "workers", int(self.workers))
         object.__setattr__(self, "scheduler", self.scheduler or None)
+        on_error = (self.on_error or "stop").strip().lower()
+        if on_error not in ("stop", "skip"):
+            raise InputError(f"-on_error: expected stop or skip, got {self.on_error!r}")
+        object.__setattr__(self, "on_error", on_error)
 
 
 @dataclass(frozen=True)

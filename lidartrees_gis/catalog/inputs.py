@@ -5,6 +5,7 @@ cloud)."""
 from __future__ import annotations
 
 import glob
+import os
 import json
 from pathlib import Path
 
@@ -104,7 +105,8 @@ def expand_inputs(inputs) -> list:
         k = str(Path(q).resolve())
         if k not in seen:
             seen.add(k)
-            uniq.append(Path(q))
+            # absolute: the workers of a cluster may run in another folder
+            uniq.append(Path(os.path.abspath(q)))
     for q in uniq:
         if not q.exists():
             raise ReadError(f"{q}: no such file")

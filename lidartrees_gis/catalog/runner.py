@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 
+from ..errors import Cancelled, InputError, LidarTreesError, ReadError
 from ..progress import SubProgress, as_progress, check_cancel
 from .catalog import Catalog
 from .source import READ_CACHE
@@ -78,17 +79,142 @@ def _client(workers, scheduler):
     return Client(cluster), cluster
 
 
+def tile_name(item, label: str = "tile") -> str:
+    """A tile (or a measurement window, a box) in words for messages."""
+    core = getattr(item, "core", None)
+    if core is None and isinstance(item, tuple) and len(item) == 4:
+        core = item
+    if core is None:
+        return f"{label} {item}"
+    x0, y0, x1, y1 = core
+    where = (f"(x {x0:.0f} to {x1:.0f}, y {y0:.0f} to {y1:.0f})").replace("inf", "edge")
+    index = getattr(item, "index", None)
+    return f"{label} {index[0]},{index[1]} {where}" if index is not None else f"{label} {where}"
+
+
+def _cause(exc) -> str:
+    """An error of a task in one line: a worker lost again and again in words."""
+    if type(exc).__name__ == "KilledWorker":
+        return ("the workers running it died each time (killed, out of memory or crashed; their "
+                "logs tell why)")
+    if isinstance(exc, LidarTreesError):
+        return str(exc)
+    return f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
+
+
+class TileError(LidarTreesError, RuntimeError):
+    """A tile failed (twice on Dask): names the tile and the error."""
+
+    def __init__(self, item, exc, label="tile"):
+        self.item, self.cause = item, exc
+        super().__init__(f"{tile_name(item, label)} failed: {_cause(exc)}")
+
+
+class FailedTiles(LidarTreesError, RuntimeError):
+    """``on_error='skip'``: the run wrote what the other tiles gave; these tiles failed.
+    ``result`` holds the run's result (its outputs lack the failed tiles' trees or cells)."""
+
+    def __init__(self, failed, result=None, label="tile"):
+        self.failed, self.result = failed, result
+        names = "; ".join(str(e) for e in failed[:5]) + (" ..." if len(failed) > 5 else "")
+        super().__init__(f"{len(failed)} {label}(s) failed and are missing from the outputs "
+                         f"(-on_error skip): {names}")
+
+
+def _hold(obj):
+    """A task whose result is ``obj`` (the catalog): held by the scheduler's task, so when the
+    workers holding it are lost it is computed again (scattered data would be lost for good)."""
+    return obj
+
+
+def _unreadable(paths) -> list:
+    """The paths this process (a worker) cannot open for reading, with the reason."""
+    bad = []
+    for p in paths:
+        try:
+            with open(p, "rb") as fh:
+                fh.read(1)
+        except OSError as exc:
+            bad.append(f"{p} ({exc.strerror or exc})")
+    return bad
+
+
+class WorkerWatch:
+    """Which workers of a cluster left and joined during a run (polled at most once a
+    second), told in one line at the end; and a line when no worker is left."""
+
+    def __init__(self, client):
+        self.client = client
+        self.start = self.now = set(self._workers())
+        self.left, self.joined, self._t, self._empty_since = set(), set(), 0.0, None
+
+    def _workers(self):
+        try:
+            return self.client.scheduler_info(n_workers=-1)["workers"].keys()
+        except Exception:  # noqa: BLE001 - the scheduler busy or gone: keep the last view
+            return self.now
+
+    def poll(self, force=False) -> None:
+        import time
+
+        t = time.monotonic()
+        if not force and t - self._t < 1.0:
+            return
+        self._t = t
+        now = set(self._workers())
+        self.left |= self.now - now
+        self.joined |= now - self.now
+        self.now = now
+        if not now and self._empty_since is None:
+            self._empty_since = t
+            _warn(f"no worker is connected to the scheduler {self.client.scheduler.address}; "
+                  "the tiles wait for workers (Ctrl-C stops)")
+        elif now:
+            self._empty_since = None
+
+    def report(self) -> str | None:
+        self.poll(force=True)
+        if not self.left and not self.joined:
+            return None
+        return (f"{len(self.left)} worker(s) lost and {len(self.joined)} joined during the run "
+                f"(started with {len(self.start)}, ended with {len(self.now)}); their tiles ran "
+                "again, the results are complete")
+
+
+def _warn(message: str) -> None:
+    import warnings
+
+    from ..errors import DataWarning
+
+    warnings.warn(DataWarning(message), stacklevel=3)
+
+
 class TileRunner:
     """Runs tasks ``fn(item, *args)``: in this process (``workers=1``), on a local Dask cluster
     of ``workers`` processes (default: all cores) or on an existing cluster (``scheduler``).
     Use it as a context manager so the cluster is started once for a whole run (the area's
     windows, then the tiles) and closed at the end. A local cluster is started when there are
-    tasks to share (two or more at once): a run of one task stays in this process."""
+    tasks to share (two or more at once): a run of one task stays in this process.
 
-    def __init__(self, workers=None, scheduler=None):
+    On Dask a task that raises is run once more (``retries``); a task whose worker is lost is
+    run again elsewhere (up to the scheduler's ``allowed-failures``). A task that still fails
+    stops the run with a :class:`TileError` naming it (``on_error='stop'``), or is set aside in
+    :attr:`failed` while the others go on (``on_error='skip'``; the chain then raises
+    :class:`FailedTiles` once its outputs are written). ``checkpoint`` keeps each result as it
+    comes and gives back the ones a killed run already made (``-resume``).
+    """
+
+    #: Dask runs a task that raised this many more times before it counts as failed
+    RETRIES = 1
+
+    def __init__(self, workers=None, scheduler=None, on_error="stop", checkpoint=None):
         self.workers = int(workers or os.environ.get("LIDARTREES_WORKERS", 0) or os.cpu_count() or 1)
         self.scheduler = scheduler or None
-        self.client = self.cluster = None
+        if on_error not in ("stop", "skip"):
+            raise InputError(f"-on_error: expected stop or skip, got {on_error!r}")
+        self.on_error, self.checkpoint = on_error, checkpoint
+        self.client = self.cluster = self.watch = None
+        self.failed = []
 
     def __enter__(self):
         if self.scheduler:
@@ -99,54 +225,118 @@ class TileRunner:
         """Connect to the scheduler or start the local cluster (once)."""
         if self.client is None and (self.workers > 1 or self.scheduler):
             self.client, self.cluster = _client(self.workers, self.scheduler)
+            if self.scheduler:
+                self.watch = WorkerWatch(self.client)
 
     def __exit__(self, *exc):
         READ_CACHE.clear()  # this process's decompressed files (workers end with the cluster)
+        if self.watch is not None and exc[0] is None:
+            line = self.watch.report()
+            if line:
+                _warn(line)
         if self.client is not None:
             self.client.close()
         if self.cluster is not None:
             self.cluster.close()
-        self.client = self.cluster = None
+        self.client = self.cluster = self.watch = None
+
+    def check_readable(self, files) -> None:
+        """On an existing cluster: every worker can read every input file (same absolute path,
+        a shared file system), else an error naming the worker and the file."""
+        if self.scheduler is None or self.client is None or not files:
+            return
+        got = self.client.run(_unreadable, [str(f) for f in files])
+        for worker, bad in sorted(got.items()):
+            if bad:
+                more = f" and {len(bad) - 1} more" if len(bad) > 1 else ""
+                raise ReadError(f"worker {worker} cannot read {bad[0]}{more}: the workers must "
+                                "see the input files at the same absolute path (a shared file "
+                                "system)")
+
+    def _failure(self, item, exc, label="tile"):
+        """A task failed for good: stop (the error names the tile) or set it aside (tiles
+        only: the area's measurement windows are all needed)."""
+        if self.on_error != "skip" or label != "tile":
+            if isinstance(exc, TileError) or (self.client is None and not self.scheduler):
+                raise exc
+            raise TileError(item, exc, label) from exc
+        err = exc if isinstance(exc, TileError) else TileError(item, exc, label)
+        self.failed.append(err)
+        _warn(f"{err} (skipped, -on_error skip)")
 
     def map(self, fn, items, args=(), *, progress=None, ordered=False, label="tile",
             inner_progress=False):
         """Yield ``fn(item, *args)`` for every item, as they finish (``ordered``: in order).
         A cancel (or Ctrl-C) cancels the remaining tasks. With ``inner_progress``, tasks run in
         this process get ``progress=`` their share of ``progress`` (a task on Dask reports when
-        it ends)."""
+        it ends). Items whose task failed for good are left out with ``on_error='skip'``."""
         prog = as_progress(progress)
+        items = list(items)
         n = len(items)
-        if n > 1:
+        ck = self.checkpoint if label == "tile" and not ordered else None
+        done = ck.load(n) if ck is not None else {}
+        todo = [k for k in range(n) if k not in done]
+        for k in sorted(done):  # what a killed run made (-resume)
+            yield done[k]
+        finished = len(done)
+        if len(todo) > 1:
             self.start()
         if self.client is None:
-            for k, it in enumerate(items):
+            for k in todo:
                 check_cancel(prog)
-                kw = {"progress": SubProgress(prog, k / n, (k + 1) / n)} if inner_progress else {}
-                yield fn(it, *args, **kw)
-                prog.update((k + 1) / n, f"{label} {k + 1}/{n}")
+                kw = {"progress": SubProgress(prog, finished / n, (finished + 1) / n)} \
+                    if inner_progress else {}
+                try:
+                    r = fn(items[k], *args, **kw)
+                except (Exception,) as exc:  # noqa: BLE001 - named, or set aside with skip
+                    if isinstance(exc, Cancelled):
+                        raise
+                    self._failure(items[k], exc, label)
+                    continue
+                if ck is not None:
+                    ck.save(k, r)
+                finished += 1
+                yield r
+                prog.update(finished / n, f"{label} {finished}/{n}")
             return
         from dask.distributed import as_completed
 
-        futs = []
+        futs, shared = [], []
         try:
-            # the arguments (the catalog above all) go to the workers once, not with every
-            # task: the client and scheduler held a copy per task, files x tiles in all
-            shared = [self.client.scatter(a, broadcast=True, hash=False)
+            # the catalog goes to the workers once, not with every task (the client and
+            # scheduler held a copy per task, files x tiles in all), as the result of a task:
+            # lost with its workers it is computed again, where scattered data is gone for good
+            shared = [self.client.submit(_hold, a, pure=False, retries=self.RETRIES)
                       if isinstance(a, Catalog) else a for a in args]
             # each worker takes a contiguous run of the (row by row) tiles, so the files it
             # decompressed for one tile are still in its read cache for the next; idle workers
             # still take over the others' tasks at the end
             addrs = sorted(self.client.scheduler_info(n_workers=-1)["workers"])
-            block = max(1, -(-n // max(len(addrs), 1)))
-            futs = [self.client.submit(fn, it, *shared, pure=False,
-                                       workers=[addrs[k // block]] if addrs else None,
+            block = max(1, -(-len(todo) // max(len(addrs), 1)))
+            # the client keeps every future until its result is written: a lost worker's
+            # tasks are run again from them
+            futs = [self.client.submit(fn, items[k], *shared, pure=False, retries=self.RETRIES,
+                                       workers=[addrs[j // block]] if addrs else None,
                                        allow_other_workers=True)
-                    for k, it in enumerate(items)]
-            for k, f in enumerate(futs if ordered else as_completed(futs)):
+                    for j, k in enumerate(todo)]
+            index = {f.key: k for f, k in zip(futs, todo)}
+            for f in (futs if ordered else as_completed(futs)):
                 check_cancel(prog)
-                yield f.result()
+                if self.watch is not None:
+                    self.watch.poll()
+                k = index[f.key]
+                try:
+                    r = f.result()
+                except Exception as exc:  # noqa: BLE001 - named, or set aside with skip
+                    self._failure(items[k], exc, label)
+                    f.release()
+                    continue
+                if ck is not None:
+                    ck.save(k, r)
+                finished += 1
+                yield r
                 f.release()
-                prog.update((k + 1) / n, f"{label} {k + 1}/{n}")
+                prog.update(finished / n, f"{label} {finished}/{n}")
         finally:
             if futs:
-                self.client.cancel(futs)
+                self.client.cancel(futs + [a for a in shared if type(a).__name__ == "Future"])

@@ -51,7 +51,8 @@ def _tiling(kw):
     from ..catalog.catalog import TilingOptions
 
     return TilingOptions(tile_size=kw.get("tile_size"), buffer=_number(kw, "buffer"),
-                         workers=_number(kw, "workers", int), scheduler=kw.get("scheduler"))
+                         workers=_number(kw, "workers", int), scheduler=kw.get("scheduler"),
+                         on_error=kw.get("on_error") or "stop", resume=bool(kw.get("resume")))
 
 
 def _out(kw):

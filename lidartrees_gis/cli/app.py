@@ -176,6 +176,8 @@ def main(argv=None) -> int:
     except (LidarTreesError, OSError, MemoryError) as exc:
         if hasattr(progress, "close"):
             progress.close()
+        if getattr(exc, "result", None) and not args.progress_lines:  # written without some tiles
+            _print_result(cmd.name, exc.result, as_json)
         print(f"lidartrees {cmd.name}: error: {_error_text(exc)}", file=sys.stderr)
         return 1
     finally:

@@ -142,7 +142,14 @@ TILES = (
           "or this process below 1 M points, where starting a cluster costs more than it "
           "saves; 1 = in this process)", flag="-workers", advanced=True),
     Param("scheduler", "str", "Address of an existing Dask scheduler to run the tiles on, e.g. "
-          "tcp://10.0.0.5:8786", flag="--scheduler", advanced=True),
+          "tcp://10.0.0.5:8786 (the workers must read the inputs at the same absolute paths)",
+          flag="--scheduler", advanced=True),
+    Param("on_error", "choice", "A tile that fails (twice on Dask): stop = stop the run, no "
+          "output written; skip = write the other tiles' results, then fail naming the tiles "
+          "left out", flag="-on_error", choices=("stop", "skip"), default="stop", advanced=True),
+    Param("resume", "bool", "Continue a killed or failed run of several tiles from the tiles it "
+          "kept beside its output (same command and inputs)", flag="-resume", default=False,
+          advanced=True),
 )
 DTM_AUTO = Param("dtm", "str", "DTM: auto = class-2 ground points if the file has them, else "
                  "lowest:5; ground = class-2 points interpolated (TIN); lowest:R = lowest point "
