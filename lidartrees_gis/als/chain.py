@@ -83,6 +83,8 @@ def kept_tiles(runner: TileRunner, output, tiling: TilingOptions, plan: AreaPlan
     read = area.read.describe() if isinstance(area, Catalog) else None
     ck = Checkpoint.beside(output, run_fingerprint(files, __version__, read, *parts[1:], plan),
                            tiling.resume)
+    if tiling.resume:
+        stale_outputs(output)
     runner.checkpoint = ck
     try:
         yield ck
@@ -103,12 +105,21 @@ def kept_tiles(runner: TileRunner, output, tiling: TilingOptions, plan: AreaPlan
         ck.finish()
 
 
+def stale_outputs(output) -> None:
+    """Remove the temporary outputs a killed run left beside ``output`` (a kill runs no
+    clean-up; -resume starts a new one)."""
+    out = Path(output)
+    for f in out.parent.glob(f".{out.stem}.*.part{out.suffix}"):
+        with contextlib.suppress(OSError):
+            f.unlink()
+
+
 def check_failed(runner: TileRunner, result: dict) -> dict:
     """``result``, or :class:`~lidartrees_gis.catalog.runner.FailedTiles` (holding it) when
     tiles were left out (``-on_error skip``)."""
     if runner.failed:
         result["failed_tiles"] = [tile_name(e.item) for e in runner.failed]
-        raise FailedTiles(runner.failed, result)
+        raise FailedTiles(runner.failed, result, result.get("tiles"))
     return result
 
 

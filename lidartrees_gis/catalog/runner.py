@@ -88,8 +88,9 @@ def tile_name(item, label: str = "tile") -> str:
         return f"{label} {item}"
     x0, y0, x1, y1 = core
     where = (f"(x {x0:.0f} to {x1:.0f}, y {y0:.0f} to {y1:.0f})").replace("inf", "edge")
-    index = getattr(item, "index", None)
-    return f"{label} {index[0]},{index[1]} {where}" if index is not None else f"{label} {where}"
+    if getattr(item, "core", None) is not None:
+        return f"{label} {item.index[0]},{item.index[1]} {where}"
+    return f"{label} {where}"
 
 
 def _cause(exc) -> str:
@@ -106,19 +107,34 @@ class TileError(LidarTreesError, RuntimeError):
     """A tile failed (twice on Dask): names the tile and the error."""
 
     def __init__(self, item, exc, label="tile"):
-        self.item, self.cause = item, exc
-        super().__init__(f"{tile_name(item, label)} failed: {_cause(exc)}")
+        self.item, self.cause, self.why = item, exc, _cause(exc)
+        super().__init__(f"{tile_name(item, label)} failed: {self.why}")
+
+
+def failures_text(errors, label="tile") -> str:
+    """Failed tasks in a few words: grouped by their error, each with the items it struck."""
+    groups = {}
+    for e in errors:
+        groups.setdefault(e.why, []).append(e.item)
+    parts = []
+    for why, items in groups.items():
+        names = [getattr(i, "index", None) for i in items]
+        names = [f"{n[0]},{n[1]}" if isinstance(n, tuple) else tile_name(i, label)
+                 for n, i in zip(names, items)]
+        more = f" and {len(names) - 4} more" if len(names) > 4 else ""
+        parts.append(f"{why} ({len(items)} {label}(s): {'; '.join(names[:4])}{more})")
+    return " | ".join(parts)
 
 
 class FailedTiles(LidarTreesError, RuntimeError):
     """``on_error='skip'``: the run wrote what the other tiles gave; these tiles failed.
     ``result`` holds the run's result (its outputs lack the failed tiles' trees or cells)."""
 
-    def __init__(self, failed, result=None, label="tile"):
+    def __init__(self, failed, result=None, total=None):
         self.failed, self.result = failed, result
-        names = "; ".join(str(e) for e in failed[:5]) + (" ..." if len(failed) > 5 else "")
-        super().__init__(f"{len(failed)} {label}(s) failed and are missing from the outputs "
-                         f"(-on_error skip): {names}")
+        of = f" of {total}" if total else ""
+        super().__init__(f"{len(failed)}{of} tiles failed and are missing from the outputs "
+                         f"(-on_error skip): {failures_text(failed)}")
 
 
 def _hold(obj):
@@ -214,7 +230,7 @@ class TileRunner:
             raise InputError(f"-on_error: expected stop or skip, got {on_error!r}")
         self.on_error, self.checkpoint = on_error, checkpoint
         self.client = self.cluster = self.watch = None
-        self.failed = []
+        self.failed, self._left_out = [], []
 
     def __enter__(self):
         if self.scheduler:
@@ -254,18 +270,29 @@ class TileRunner:
                                 "system)")
 
     def _failure(self, item, exc, label="tile"):
-        """A task failed for good: stop (the error names the tile) or set it aside (tiles
-        only: the area's measurement windows are all needed)."""
-        if self.on_error != "skip" or label != "tile":
+        """A task failed for good: stop (the error names the tile) or set it aside: a tile is
+        missing from the outputs (:attr:`failed`), a measurement window from the area's
+        measurements (a sample: the tiles over the same data fail and are named)."""
+        if self.on_error != "skip":
             if isinstance(exc, TileError) or (self.client is None and not self.scheduler):
                 raise exc
             raise TileError(item, exc, label) from exc
         err = exc if isinstance(exc, TileError) else TileError(item, exc, label)
-        self.failed.append(err)
-        _warn(f"{err} (skipped, -on_error skip)")
+        (self.failed if label == "tile" else self._left_out).append(err)
 
     def map(self, fn, items, args=(), *, progress=None, ordered=False, label="tile",
             inner_progress=False):
+        """See :meth:`_map`; measurement windows set aside (``-on_error skip``) are told in one
+        line at the end."""
+        self._left_out = []
+        yield from self._map(fn, items, args, progress=progress, ordered=ordered, label=label,
+                             inner_progress=inner_progress)
+        if self._left_out:
+            _warn(f"{len(self._left_out)} of {len(items)} {label}s were left out of the area's "
+                  f"measurements (-on_error skip): {failures_text(self._left_out, label)}")
+
+    def _map(self, fn, items, args=(), *, progress=None, ordered=False, label="tile",
+             inner_progress=False):
         """Yield ``fn(item, *args)`` for every item, as they finish (``ordered``: in order).
         A cancel (or Ctrl-C) cancels the remaining tasks. With ``inner_progress``, tasks run in
         this process get ``progress=`` their share of ``progress`` (a task on Dask reports when
