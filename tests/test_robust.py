@@ -1,5 +1,7 @@
 """Issue 26: what a user gets when the input or an option is wrong: refusals instead of hangs,
 hints that fit the file, the right advice for mixed datums."""
+import json
+
 import numpy as np
 import pytest
 from pyproj import CRS, Transformer
@@ -59,7 +61,17 @@ def test_a_folder_mixing_datums_is_told_to_use_t_srs(tmp_path, capsys):
     assert "-t_srs" in err and "give -a_srs" not in err
     whole = tmp_path / "whole.las"
     write_points(whole, pts.x, pts.y, pts.z, crs=sirgas, classification=pts.classification)
+    capsys.readouterr()
     assert main(["trees", str(d), str(tmp_path / "t.gpkg"), "-t_srs", "EPSG:31984", "-q"]) == 0
+    # each file's operation is recorded (the report named only the first file's, a no-op)
+    line = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("reprojection:")]
+    assert len(line) == 1 and "SAD69" in line[0] and "[1 file(s)]" in line[0]
+    meta = pyogrio.read_info(tmp_path / "t.gpkg", layer="tree_tops")["layer_metadata"]
+    files = json.loads(meta["reprojection_files"])
+    assert "SAD69" in files[str(d / "b.las")]["source_crs"]
+    assert "SAD69 to SIRGAS 2000" in files[str(d / "b.las")]["operation"]
+    assert "SIRGAS 2000" in files[str(d / "a.las")]["source_crs"]
+    assert float(meta["reprojection_accuracy_m"]) >= files[str(d / "b.las")]["accuracy_m"] > 0
     assert main(["trees", str(whole), str(tmp_path / "w.gpkg"), "-q"]) == 0
     a = pyogrio.read_dataframe(tmp_path / "t.gpkg", layer="tree_tops")
     b = pyogrio.read_dataframe(tmp_path / "w.gpkg", layer="tree_tops")
@@ -175,6 +187,33 @@ def test_one_point_far_from_the_rest_is_named_not_a_hang(data, tmp_path, capsys)
     assert main(["trees", str(f), str(tmp_path / "t.gpkg"), "-q"]) == 1
     err = capsys.readouterr().err
     assert "far from the rest" in err and "100,090" in err and "-tr" in err
+
+
+@pytest.mark.realdata
+def test_a_far_point_with_a_given_cell_size_is_named_in_a_warning(data, tmp_path, capsys):
+    """With -tr given the far point was accepted without a word and stretched the outputs
+    1,112 times: a warning names the point, the others' extent and the grid it makes. Two
+    halves of a file far apart (two farms) are not "a few points" and get no warning."""
+    import laspy
+
+    from lidartrees_gis.als.area import far_points
+
+    las = laspy.read(data("lidR_extdata/MixedConifer.laz"))
+    x = np.asarray(las.x).copy()
+    x[0] += 100_000
+    las.x = x
+    las.update_header()
+    f = tmp_path / "far.las"
+    las.write(str(f))
+    assert main(["chm", str(f), str(tmp_path / "c.tif"), "-tr", "0.5"]) == 0
+    err = capsys.readouterr().err
+    assert "1 point(s) lie far from the other 37,656" in err
+    assert "100,090 x 90 m extent" in err and "cells of 0.5 m" in err
+    x = np.asarray(las.x)
+    y = np.asarray(las.y)
+    assert far_points(x, y)[0].sum() == 1
+    two = np.where(np.arange(x.size) % 2 == 0, x, x + 50_000)  # two farms 50 km apart
+    assert far_points(two, y)[0].sum() == 0
 
 
 @pytest.mark.realdata

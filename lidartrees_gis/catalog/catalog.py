@@ -34,6 +34,7 @@ class Catalog:
     read: ReadOptions = field(default_factory=ReadOptions)
     skipped: int = 0  # malformed XYZ lines skipped (with read.skip_invalid)
     repro: object = None  # the -t_srs reprojection (of the first file), or None
+    repros: list = field(default_factory=list)  # each file's -t_srs reprojection (or None)
 
     @classmethod
     def open(cls, inputs, read: ReadOptions | None = None) -> "Catalog":
@@ -46,7 +47,7 @@ class Catalog:
             a_srs = next((ept_crs(i) for i in items if is_ept(i) and Path(str(i)).is_file()), None)
             if a_srs is not None:
                 read = read.with_crs(a_srs)
-        bounds, counts, crs, skipped, repro = [], [], None, 0, None
+        bounds, counts, crs, skipped, repro, repros = [], [], None, 0, None, []
         for f in files:
             src = read.open(f)
             hb = src.header_bounds() if src.format == "las" else None
@@ -59,6 +60,7 @@ class Catalog:
                 counts.append(int(st.count))
                 skipped += int(st.skipped or 0)
             repro = repro or src.repro
+            repros.append(src.repro)
             if src.crs is not None:
                 if crs is None:
                     crs = src.crs
@@ -68,7 +70,7 @@ class Catalog:
                         f"{crs_label(crs)}; give -t_srs (e.g. -t_srs {crs_label(crs).split()[0]}) "
                         "to transform every file from its own CRS into one (-a_srs would only "
                         "relabel them and misplace the data)")
-        return cls(files, bounds, counts, crs, read, skipped, repro)
+        return cls(files, bounds, counts, crs, read, skipped, repro, repros)
 
     @property
     def path(self) -> Path:

@@ -23,17 +23,50 @@ def raster_tags(command: str, src: PointSource, params: dict, input=None) -> dic
     return tags
 
 
+def _operations(src) -> list:
+    """The distinct ``-t_srs`` operations of ``src`` (a file, or a catalog whose files may be in
+    different CRSs), each with the files it applies to: ``[(Reprojection, [file, ...])]``."""
+    repros = getattr(src, "repros", None)
+    if not repros:
+        r = getattr(src, "repro", None)
+        return [(r, [str(getattr(src, "path", ""))])] if r is not None else []
+    ops = {}
+    for f, r in zip(src.files, repros):
+        if r is not None:
+            ops.setdefault(r.report(), (r, []))[1].append(str(f))
+    return list(ops.values())
+
+
 def repro_report(src: PointSource):
-    """The ``-t_srs`` operation in words (None without a reprojection)."""
-    return src.repro.report() if getattr(src, "repro", None) else None
+    """The ``-t_srs`` operation in words (None without a reprojection); a folder whose files
+    were in different CRSs gets each operation with its number of files."""
+    ops = _operations(src)
+    if not ops:
+        return None
+    if len(ops) == 1:
+        return ops[0][0].report()
+    return "; ".join(f"{r.report()} [{len(files)} file(s)]" for r, files in ops)
 
 
 def repro_meta(src: PointSource) -> dict:
-    """Source CRS, operation and its accuracy of a ``-t_srs`` reprojection (empty without)."""
-    r = getattr(src, "repro", None)
-    if r is None:
+    """Source CRS, operation and its accuracy of a ``-t_srs`` reprojection (empty without);
+    files from several CRSs: each operation (``; `` between them), the worst accuracy, and
+    ``reprojection_files``: each file's operation and accuracy (JSON)."""
+    import json
+
+    ops = _operations(src)
+    if not ops:
         return {}
-    acc = None if r.accuracy is None or r.accuracy < 0 else r.accuracy
-    return {"reprojection_source_crs": crs_label(r.src), "reprojection_operation": r.description,
-            "reprojection_accuracy_m": "unknown" if acc is None else f"{acc:g}",
-            "reprojection_note": r.note.lstrip("; ") or None}
+    accs = [r.accuracy for r, _ in ops]
+    known = [a for a in accs if a is not None and a >= 0]
+    acc = "unknown" if len(known) < len(accs) else f"{max(known):g}"
+    meta = {"reprojection_source_crs": "; ".join(crs_label(r.src) for r, _ in ops),
+            "reprojection_operation": "; ".join(r.description for r, _ in ops),
+            "reprojection_accuracy_m": acc,
+            "reprojection_note": "; ".join(r.note.lstrip("; ") for r, _ in ops if r.note) or None}
+    if len(ops) > 1:
+        meta["reprojection_files"] = json.dumps(
+            {f: {"source_crs": crs_label(r.src), "operation": r.description,
+                 "accuracy_m": None if r.accuracy is None or r.accuracy < 0 else r.accuracy}
+             for r, files in ops for f in files})
+    return meta
