@@ -225,3 +225,49 @@ def test_a_single_file_with_scheduler_says_why_it_runs_here(data, tmp_path, caps
                  "--scheduler", "tcp://127.0.0.1:9", "-q"]) == 0
     err = capsys.readouterr().err
     assert "one tile, run in this process" in err and "--scheduler tcp://127.0.0.1:9" in err
+
+
+def test_findings_of_the_independent_fuzzer_are_one_line_errors(tmp_path, capsys):
+    """benchmarks/fuzz_independent.py found: an empty number (`-min_height ""`, as QGIS sends
+    an unset field) raised a TypeError; `-refine inf` an OverflowError; `-window_factor 1e9` a
+    numpy "array is too big"; `profile`/`stem` on points spanning kilometres in z ran until
+    killed (millions of bins). Now: empty = not given, the others one-line errors."""
+    from lidartrees_gis.als.trees import TreeParams
+    from lidartrees_gis.cli.actions import _kp_params, _tree_params
+    from lidartrees_gis.io.lasout import write_points
+
+    assert _tree_params({"min_height": "", "connectivity": "", "window_factor": ""}) == TreeParams()
+    assert _kp_params({"refine": "", "g": ""}).refine == 10
+    rng = np.random.default_rng(0)
+    f = tmp_path / "t.las"
+    z = rng.random(500) * 20
+    z[0] = 400_000.0  # one wrong digit run wild
+    write_points(f, rng.random(500), rng.random(500), z, crs=CRS.from_epsg(31984))
+    cases = [(["ground", str(f), str(tmp_path / "g.tif"), "-refine", "inf"], "-refine"),
+             (["trees", str(f), str(tmp_path / "t.gpkg"), "-window_factor", "1e9"],
+              "-window_factor must be > 0 and <= 20"),
+             (["profile", str(f), str(tmp_path / "p.las")], "span 400,000 m in z"),
+             (["stem", str(f), str(tmp_path / "s")], "one tree spans at most 300 m")]
+    for argv, words in cases:
+        assert main(argv + ["-q"]) == 1, argv
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and words in err[0] and "Traceback" not in err[0], (argv, err)
+    assert sorted(q.name for q in tmp_path.iterdir()) == ["t.las"]  # nothing written
+
+
+def test_ground_on_a_strip_one_refinement_cell_wide():
+    """Found by the independent fuzzer (`ground` on a stem's scan with -tin_cell 0): the
+    densification's TIN grid was one cell wide and np.gradient raised. A strip is ground too."""
+    from lidartrees_gis.ground.filter import KrausPfeifer, kraus_pfeifer
+
+    rng = np.random.default_rng(4)
+    n = 3000
+    x = rng.random(n) * 0.3  # 30 cm wide, 40 m long: less than one refinement cell across
+    y = rng.random(n) * 40
+    z = 0.05 * y + rng.normal(0, 0.02, n)
+    z[::10] += 5 + rng.random(n // 10) * 10  # vegetation above every tenth point
+    ground, _ = kraus_pfeifer(x, y, z, KrausPfeifer(tin_cell=0))
+    veg = np.zeros(n, bool)
+    veg[::10] = True
+    assert not ground[veg].any()
+    assert ground[~veg].mean() > 0.9

@@ -145,13 +145,15 @@ class TreeParams:
             raise InputError(f"-connectivity must be 4 or 8, got {self.connectivity}")
         object.__setattr__(self, "spacing", parse_spacing(self.spacing))
         if self.crown_scale is not None and not (np.isfinite(self.crown_scale)
-                                                 and self.crown_scale > 0):
-            raise InputError(f"-crown_scale must be > 0 (m), got {self.crown_scale}")
-        if not (np.isfinite(self.window_factor) and self.window_factor > 0):
-            raise InputError(f"-window_factor must be > 0, got {self.window_factor}")
+                                                 and 0 < self.crown_scale <= 50):
+            raise InputError(f"-crown_scale must be > 0 and <= 50 (m), got {self.crown_scale}")
+        if not (np.isfinite(self.window_factor) and 0 < self.window_factor <= 20):
+            raise InputError(f"-window_factor must be > 0 and <= 20 (crown scales), got "
+                             f"{self.window_factor}")
         if self.min_separation is not None and not (np.isfinite(self.min_separation)
-                                                    and self.min_separation >= 0):
-            raise InputError(f"-min_separation must be >= 0 (m), got {self.min_separation}")
+                                                    and 0 <= self.min_separation <= 100):
+            raise InputError(f"-min_separation must be >= 0 and <= 100 (m), got "
+                             f"{self.min_separation}")
         if self.planting not in (None, "auto", "none"):
             raise InputError(f"-planting: expected auto or none, got {self.planting!r}")
         if not (np.isfinite(self.step) and self.step > 0):

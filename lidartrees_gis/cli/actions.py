@@ -20,7 +20,7 @@ def _number(kw, name, kind=float):
                 raise ValueError
             return int(f)
         return f
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise InputError(f"-{name}: expected {'a whole number' if kind is int else 'a number'}, "
                          f"got {v!r}") from None
 
@@ -72,8 +72,8 @@ def _tree_params(kw):
     numbers = ("min_height", "step", "mean_crown_area", "sd_crown_area", "max_crown_area",
                "min_crown_height", "crown_scale", "window_factor", "min_separation")
     vals = {n: kw[n] for n in text if kw.get(n) not in (None, "")}
-    vals.update({n: _number(kw, n) for n in numbers if kw.get(n) is not None})
-    if kw.get("connectivity") is not None:
+    vals.update({n: _number(kw, n) for n in numbers if kw.get(n) not in (None, "")})
+    if kw.get("connectivity") not in (None, ""):
         vals["connectivity"] = _number(kw, "connectivity", int)
     for key in ("treex_centred", "treex_local"):
         if kw.get(key) is not None:
@@ -86,10 +86,10 @@ def _kp_params(kw):
 
     vals = {"gshift": bool(kw.get("gshift"))}
     for n in ("g", "w", "a", "b", "cell", "tolerance", "slope", "tin_cell", "low", "w_growth"):
-        if kw.get(n) is not None and not (n in ("g", "w") and ":" in str(kw[n])):
+        if kw.get(n) not in (None, "") and not (n in ("g", "w") and ":" in str(kw[n])):
             vals[n] = _number(kw, n)
     for n in ("iterations", "levels", "refine"):
-        if kw.get(n) is not None:
+        if kw.get(n) not in (None, ""):
             vals[n] = _number(kw, n, int)
     return KrausPfeifer(**vals)
 
@@ -161,7 +161,7 @@ def stem(input, prefix, **kw):
     from ..tls.stem import DmaxParams
 
     vals = {n: _number(kw, n) for n in ("section", "search", "hspacing", "vspacing", "start")
-            if kw.get(n) is not None}
+            if kw.get(n) not in (None, "")}
     if kw.get("base") is not None:
         vals["base"] = str(kw["base"])
     return stem_file(input, prefix, params=DmaxParams(**vals), read=_read(kw),

@@ -207,6 +207,13 @@ def lowest_per_cell(x, y, z, sel, res):
     return m
 
 
+def _slope(dtm, res):
+    """Gradient magnitude of a grid; 0 along an axis only one cell wide (a strip of points)."""
+    g = [np.gradient(dtm, res, axis=a) if dtm.shape[a] > 1 else np.zeros_like(dtm)
+         for a in (0, 1)]
+    return np.hypot(g[0], g[1])
+
+
 def densify(x, y, z, ground, usable, params: KrausPfeifer, progress=None):
     """Densification passes against the TIN of the current ground points (stage 2)."""
     from ..tin import interpolate_tin
@@ -222,8 +229,7 @@ def densify(x, y, z, ground, usable, params: KrausPfeifer, progress=None):
         if seed.sum() < 3:
             break
         dtm = interpolate_tin(x[seed], y[seed], z[seed], spec, max_radius=np.inf)
-        gy, gx = np.gradient(dtm, res)
-        slope = _bilinear(np.hypot(gx, gy), spec, x, y)
+        slope = _bilinear(_slope(dtm, res), spec, x, y)
         v = z - _bilinear(dtm, spec, x, y)
         new = (v <= p.refine_tolerance + p.slope * slope) & (v >= -1.0 - p.slope * slope)
         if np.array_equal(new, ground):

@@ -12,6 +12,29 @@ from ..progress import SubProgress, as_progress, check_cancel
 from ..report.plots import plot_png
 
 
+#: one tree's points span at most this many metres in z and across (the tallest trees stand
+#: about 115 m; a scan cropped to one tree holds some ground around it)
+MAX_TREE_SPAN = 300.0
+
+
+def check_one_tree(pts, path) -> None:
+    """Refuse points that cannot be one tree (a span of kilometres: a wrong digit, or another
+    unit), before slicing them into thousands of sections or bins."""
+    if not len(pts):
+        from ..errors import InputError
+
+        raise InputError(f"{path}: no points")
+    for name, v in (("z", pts.z), ("x", pts.x), ("y", pts.y)):
+        lo, hi = float(np.min(v)), float(np.max(v))
+        if not hi - lo <= MAX_TREE_SPAN:
+            from ..errors import InputError
+
+            raise InputError(f"{path}: the points span {hi - lo:,.0f} m in {name} ({lo:,.2f} .. "
+                             f"{hi:,.2f}); one tree spans at most {MAX_TREE_SPAN:g} m: check the "
+                             "coordinates (a wrong digit, another unit) or crop the scan to one "
+                             "tree")
+
+
 def stem_file(input, prefix, *, params=None, read: ReadOptions | None = None, overwrite=False,
               progress=None) -> dict:
     """Dmax trunk filter (seed 004) on one tree: ``PREFIX_trunk.laz`` (trunk points with a
@@ -35,6 +58,7 @@ def stem_file(input, prefix, *, params=None, read: ReadOptions | None = None, ov
     prog = as_progress(progress)
     src = (read or ReadOptions()).open(input, filtered=False)
     pts = src.read_all(SubProgress(prog, 0, 0.2))
+    check_one_tree(pts, input)
     r = dmax_filter(pts.x, pts.y, pts.z, params, progress=SubProgress(prog, 0.2, 0.8))
     check_cancel(prog)
     ti = r["trunk_index"]
@@ -115,6 +139,7 @@ def profile_file(input, output, *, bin=0.05, sigma=0.3, rule="spread",  # noqa: 
     prog = as_progress(progress)
     src = (read or ReadOptions()).open(input, filtered=False)
     pts = src.read_all(SubProgress(prog, 0, 0.5))
+    check_one_tree(pts, input)
     r = segment_profile(pts.z, bin=bin, sigma=sigma, rule=rule, x=pts.x, y=pts.y)
     check_cancel(prog)
     write_points(out, pts.x, pts.y, pts.z, crs=src.crs, classification=np.ones(len(pts), np.uint8),
