@@ -76,8 +76,8 @@ class KrausPfeifer:
             raise InputError(f"-w must be > 0, got {self.w}")
         if not (self.a > 0 and self.b > 0):
             raise InputError("-a and -b must be > 0")
-        if int(self.iterations) < 1:
-            raise InputError(f"-iterations must be >= 1, got {self.iterations}")
+        if not 1 <= int(self.iterations) <= 100:  # the robust weights settle in a few
+            raise InputError(f"-iterations must be 1 to 100, got {self.iterations}")
         if not self.cell > 0:
             raise InputError(f"-cell must be > 0 m, got {self.cell}")
         if not 1 <= int(self.levels) <= 12:

@@ -45,6 +45,12 @@ def _check_las_raw(path):
     return b
 
 
+#: LAZ chunks hold 50,000 points as written by LASzip and lazrs; a laszip VLR saying more than
+#: this and more than the file's points is corrupt (the decoder would allocate the chunk whole
+#: and abort the process when that fails)
+MAX_LAZ_CHUNK = 5_000_000
+
+
 def _check_laz_chunk_table(path, b, hsize: int, offset: int, nvlr: int, size: int) -> None:
     """Refuse a LAZ file whose chunk table cannot be true (the decoder would allocate what it
     says and abort the process): its offset beyond the file, a version other than 0, or more
@@ -65,6 +71,10 @@ def _check_laz_chunk_table(path, b, hsize: int, offset: int, nvlr: int, size: in
             body = fh.read(length)
             if user == b"laszip encoded" and rec == 22204 and len(body) >= 16:
                 chunk_size, = struct.unpack_from("<I", body, 12)
+        if chunk_size is not None and chunk_size != 0xFFFFFFFF \
+                and chunk_size > max(count, MAX_LAZ_CHUNK):  # the decoder allocates a chunk
+            raise ReadError(f"{path}: the LAZ file is corrupt (its laszip VLR says {chunk_size:,} "
+                            f"points per chunk, for {count:,} points)")
         fh.seek(offset)
         raw = fh.read(8)
         if len(raw) < 8:

@@ -110,3 +110,11 @@ class OutputOptions:
     nln: str = ""
     layer_options: dict | None = None
     creation_options: dict | None = None
+
+    def __post_init__(self):
+        import re
+
+        # GDAL's GeoPackage driver refuses names beginning with other characters ('/tmp/...')
+        if self.nln and not re.fullmatch(r"[^\W]([\w.\-]*)", str(self.nln)):
+            raise InputError(f"-nln: {self.nln!r}: a layer name prefix takes letters, digits, "
+                             "'_', '-' and '.', and begins with a letter, digit or '_'")

@@ -64,8 +64,14 @@ class DmaxParams:
 
     def __post_init__(self):
         for name in ("section", "search", "hspacing", "vspacing"):
-            if not getattr(self, name) > 0:
-                raise InputError(f"-{name} must be > 0 m, got {getattr(self, name)}")
+            v = getattr(self, name)
+            if not (v > 0 and np.isfinite(v)):
+                raise InputError(f"-{name} must be a number > 0 m, got {v}")
+        if not (self.start >= 0 and np.isfinite(self.start)):
+            raise InputError(f"-start must be a height >= 0 m above the base, got {self.start}")
+        if self.hspacing > self.search:
+            raise InputError(f"-hspacing {self.hspacing:g} m is wider than the search window "
+                             f"-search {self.search:g} m")
         if self.section < self.vspacing:
             raise InputError(f"-section {self.section:g} m is thinner than the scan's vertical "
                              f"spacing -vspacing {self.vspacing:g} m: a section would hold at "
