@@ -62,7 +62,8 @@ def canopy_height(input, *, res="auto", dtm="auto", chm="pitfree", fill="mean8",
 
 def find_trees(input, *, params=None, res="auto", dtm="auto", chm="pitfree", fill="mean8",
                outliers=True, drop_class=(7, 18), keep_class=None, a_srs=None, t_srs=None,
-               tile_size=None, workers=None, progress=None, **read_kw):
+               tile_size=None, workers=None, stands=None, stand_id=None, progress=None,
+               **read_kw):
     """Tree tops and crowns of point files or a CHM GeoTIFF, as ``lidartrees trees`` finds them.
 
     Parameters
@@ -70,6 +71,11 @@ def find_trees(input, *, params=None, res="auto", dtm="auto", chm="pitfree", fil
     params : lidartrees_gis.als.trees.TreeParams, optional
         Detection parameters (default: automatic smoothing and window; ``spacing="3x2"`` for the
         plantation mode).
+    stands : str, Path or geopandas.GeoDataFrame, optional
+        Stand (talhão) polygons (``PATH[:LAYER]``): each tree gets its ``stand_id`` and
+        ``summary["stands"]`` is a GeoDataFrame of the per-stand inventory.
+    stand_id : str, optional
+        The stands' id field (default: ``stand_id``, ``talhao``, ... or numbered).
 
     Returns
     -------
@@ -86,9 +92,13 @@ def find_trees(input, *, params=None, res="auto", dtm="auto", chm="pitfree", fil
     surface, read = _options(res, dtm, chm, fill, outliers, drop_class, keep_class, a_srs, t_srs,
                              read_kw)
     r = trees_run(input, None, params=params, surface=surface, read=read,
-                  tiling=TilingOptions(tile_size=tile_size, workers=workers), progress=progress)
+                  tiling=TilingOptions(tile_size=tile_size, workers=workers), stands=stands,
+                  stand_id=stand_id, progress=progress)
     layers = r["layers"]
-    return layers["tree_tops"], layers["crowns"], layers["summary"].iloc[0].to_dict()
+    summary = layers["summary"].iloc[0].to_dict()
+    if "stands" in layers:
+        summary["stands"] = layers["stands"]
+    return layers["tree_tops"], layers["crowns"], summary
 
 
 def point_info(input, *, a_srs=None, progress=None, **read_kw) -> dict:

@@ -23,7 +23,8 @@ from qgis.core import (QgsProcessingAlgorithm, QgsProcessingContext,
                        QgsProcessingParameterFile, QgsProcessingParameterFileDestination,
                        QgsProcessingParameterFolderDestination, QgsProcessingParameterNumber,
                        QgsProcessingParameterPointCloudLayer,
-                       QgsProcessingParameterRasterDestination, QgsProcessingParameterString)
+                       QgsProcessingParameterRasterDestination, QgsProcessingParameterString,
+                       QgsProcessingParameterVectorLayer, QgsProcessing)
 
 from ._lib import commands, executable_error, find_executable, styles_dir
 
@@ -39,6 +40,7 @@ LAYER_INPUT = ("info", "grid", "chm", "trees", "compare", "ground", "dtm-quality
 LAS_OUTPUTS = {("ground", "output"), ("profile", "output")}
 GPKG_LAYERS = (("tree_tops", "tree_tops.qml"), ("crowns", "crowns.qml"))
 GAPS_LAYER = ("gaps", "gaps.qml")  # plantation mode (-spacing) only
+STANDS_LAYER = ("stands", "stands.qml")  # with -stands only
 CASTRO = ("Castro, F. da C. e (2006). Segmentação de imagens geradas por laser scanning "
           "aerotransportado para delimitação de árvores individuais em áreas de reflorestamento de "
           "eucaliptos. MSc dissertation, Universidade Tecnológica Federal do Paraná (UTFPR), "
@@ -190,6 +192,8 @@ def run_cli(args, feedback):
 
 #: readable labels for parameters whose help text is too long to be one
 LABELS = {
+    "stands": "Stands (talhões) polygon layer", "stand_id": "Stand id field",
+    "stand_csv": "Per-stand inventory CSV",
     "a_srs": "CRS of the input (assign)", "t_srs": "Reproject to CRS",
     "allow_no_crs": "Allow outputs without a CRS", "buffer": "Tile buffer",
     "chm": "Canopy height model", "columns": "Text columns (x,y,z,...)",
@@ -254,11 +258,37 @@ def _output_kind(cmd_name, p):
         return "png"
     if cmd_name == "evaluate":
         return "json"
-    if p.name == "csv" or cmd_name == "compare":
+    if p.name in ("csv", "stand_csv") or cmd_name == "compare":
         return "csv"
     if cmd_name == "trees" and p.name == "output":
         return "gpkg"
     return "raster"
+
+
+def vector_source(layer, pid):
+    """A polygon layer as the command line takes it: ``PATH`` or ``PATH:LAYER`` of its file;
+    a layer with no file behind it (a memory or database layer) is saved to a temporary
+    GeoPackage first."""
+    if layer is None:
+        return None
+    if layer.providerType() == "ogr":
+        parts = layer.source().split("|")
+        path = parts[0]
+        name = next((q.split("=", 1)[1] for q in parts[1:] if q.startswith("layername=")), "")
+        if os.path.isfile(path) and not any(q.startswith(("subset=", "geometrytype="))
+                                            for q in parts[1:]):
+            return f"{path}:{name}" if name else path
+    from qgis.core import QgsCoordinateTransformContext, QgsVectorFileWriter
+
+    tmp = os.path.join(tempfile.mkdtemp(prefix="lidartrees-"), "stands.gpkg")
+    opts = QgsVectorFileWriter.SaveVectorOptions()
+    opts.driverName = "GPKG"
+    err = QgsVectorFileWriter.writeAsVectorFormatV3(layer, tmp, QgsCoordinateTransformContext(),
+                                                    opts)
+    if err[0] != QgsVectorFileWriter.NoError:
+        raise QgsProcessingException(f"{pid}: cannot save the layer '{layer.name()}' for the "
+                                     f"command ({err[1]})")
+    return tmp
 
 
 class CommandAlgorithm(QgsProcessingAlgorithm):
@@ -351,6 +381,10 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
                                                 defaultValue=p.default, optional=optional)
         if p.kind == "crs":
             return QgsProcessingParameterCrs(pid, label, optional=True)
+        if p.kind == "vector":
+            return QgsProcessingParameterVectorLayer(pid, label,
+                                                     [QgsProcessing.TypeVectorPolygon],
+                                                     optional=True)
         if p.kind == "res":
             return QgsProcessingParameterString(pid, "Cell size (m), or auto",
                                                 optional=not p.required)
@@ -391,6 +425,8 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
                 # a spelling QGIS does not know ('SAD69 24K'): the command reads it or says why
                 return raw.strip() if isinstance(raw, str) and raw.strip() else None
             return crs.authid() or crs.toWkt()
+        if p.kind == "vector":
+            return vector_source(self.parameterAsVectorLayer(parameters, pid, context), pid)
         if p.kind == "kv":
             s = self.parameterAsString(parameters, pid, context)
             return [t for t in s.replace(";", " ").split() if t] or None
@@ -452,7 +488,9 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
         for p in cmd.params:
             if p.kind in ("output", "outdir") and kw.get(p.name):
                 out[p.name.upper()] = kw[p.name]
-                self._load_with_style(p, kw[p.name], context, with_gaps=bool(kw.get("spacing")))
+                self._load_with_style(p, kw[p.name], context, with_gaps=bool(kw.get("spacing")),
+                                      with_stands=bool(kw.get("stands")),
+                                      prefix=kw.get("nln") or "")
         if self._name == "info":
             out["JSON"] = json.dumps(res)
             out["POINTS"] = res["points"]
@@ -466,10 +504,13 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
             feedback.pushInfo(res["table"])
         return out
 
-    def _load_with_style(self, p, path, context, with_gaps=False):
+    def _load_with_style(self, p, path, context, with_gaps=False, with_stands=False,
+                         prefix=""):
         sdir = styles_dir()
         if self._name == "trees" and p.name == "output":
-            for layer, qml in GPKG_LAYERS + ((GAPS_LAYER,) if with_gaps else ()):
+            for layer, qml in GPKG_LAYERS + ((GAPS_LAYER,) if with_gaps else ()) \
+                    + ((STANDS_LAYER,) if with_stands else ()):
+                layer = prefix + layer
                 uri = f"{path}|layername={layer}"
                 details = QgsProcessingContext.LayerDetails(layer, context.project(), layer)
                 if sdir:

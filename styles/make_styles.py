@@ -93,6 +93,32 @@ def graduated(layer, field, symbol_fn, breaks, colors):
     layer.setRenderer(rend)
 
 
+def stands_style(out):
+    """Stands: a blue outline, no fill, labelled with the stand id and its trees per hectare."""
+    from qgis.core import (QgsPalLayerSettings, QgsSingleSymbolRenderer, QgsTextBufferSettings,
+                           QgsTextFormat, QgsVectorLayerSimpleLabeling)
+
+    lyr = QgsVectorLayer("Polygon?field=stand_id:string&field=trees_per_ha:double", "stands",
+                         "memory")
+    lyr.setRenderer(QgsSingleSymbolRenderer(QgsFillSymbol.createSimple(
+        {"style": "no", "outline_color": "#08519c", "outline_width": "0.8"})))
+    pal = QgsPalLayerSettings()
+    pal.isExpression = True
+    pal.fieldName = ("\"stand_id\" || '\\n' || format_number(\"trees_per_ha\", 0) || "
+                     "' trees/ha'")
+    fmt = QgsTextFormat()
+    fmt.setColor(QColor("#08519c"))
+    fmt.setSize(10)
+    buf = QgsTextBufferSettings()
+    buf.setEnabled(True)
+    buf.setColor(QColor("#ffffff"))
+    fmt.setBuffer(buf)
+    pal.setFormat(fmt)
+    lyr.setLabeling(QgsVectorLayerSimpleLabeling(pal))
+    lyr.setLabelsEnabled(True)
+    lyr.saveNamedStyle(str(out))
+
+
 def main():
     app = QgsApplication([], False)
     app.initQgis()
@@ -122,6 +148,7 @@ def main():
         {"name": "cross2", "color": "#e31a1c", "outline_color": "#e31a1c", "outline_width": "0.6",
          "size": "3"})))
     gaps.saveNamedStyle(str(HERE / "gaps.qml"))
+    stands_style(HERE / "stands.qml")
     app.exitQgis()
     print("styles written to", HERE)
 

@@ -33,6 +33,7 @@ from ..progress import SubProgress, as_progress
 from .area import AreaPlan, one_tile_area, plan_area
 from .sinks import GpkgTreeLayers, QuickLook, Tally, TreeLayers, TreesSummary, TreexCsv
 from .surfaces import SurfaceOptions, box_surfaces
+from .stands import StandsTally, write_stand_csv
 from .tile import tile_trees, warn_sparse_plantation
 from .trees import TreeParams, auto_smoothing
 
@@ -166,7 +167,8 @@ def _trees_meta(input, area, params: TreeParams, plan: AreaPlan, surface: Surfac
 def trees_run(input, output=None, *, params: TreeParams | None = None,
               surface: SurfaceOptions | None = None, read: ReadOptions | None = None,
               tiling: TilingOptions | None = None, out: OutputOptions | None = None, png=None,
-              csv=None, chm_out=None, progress=None) -> dict:
+              csv=None, chm_out=None, stands=None, stand_id=None, stand_csv=None,
+              progress=None) -> dict:
     """Tree tops, crowns and a stand summary from points or a CHM, into a GeoPackage.
 
     Parameters
@@ -181,6 +183,14 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
     surface, read, tiling, out : SurfaceOptions, ReadOptions, TilingOptions, OutputOptions
     png, csv, chm_out : str or Path, optional
         Also write the quick-look PNG, the TreeX-layout CSV, the CHM GeoTIFF.
+    stands : str, Path or GeoDataFrame, optional
+        Stand (talhão) polygons (``PATH[:LAYER]``, any OGR source): every tree and gap gets its
+        ``stand_id`` and a ``stands`` layer the per-stand figures (in plantation mode with each
+        stand's own lattice); see :func:`lidartrees_gis.als.stands.load_stands`.
+    stand_id : str, optional
+        The stands' id field (default: the first of ``stand_id``, ``talhao``, ... present).
+    stand_csv : str or Path, optional
+        Also write the stands' figures as a CSV table.
 
     Returns
     -------
@@ -192,11 +202,17 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
     if output is not None and Path(output).suffix.lower() != ".gpkg":
         raise InputError(f"OUTPUT: {output}: expected a .gpkg file name")
     outputs = [(output, "OUTPUT", out.overwrite or out.append), (png, "-png"), (csv, "-csv"),
-               (chm_out, "-chm_out")]
+               (chm_out, "-chm_out"), (stand_csv, "-stand_csv")]
+    if stand_csv is not None and stands is None:
+        raise InputError("-stand_csv: needs -stands (the stand polygons)")
     check_outputs(outputs, (), out.overwrite)
     prog = as_progress(progress)
     area = open_area(input, read)
     check_outputs(outputs, area.files, out.overwrite)
+    if stands is not None:
+        from .stands import load_stands
+
+        stands = load_stands(stands, area.crs, stand_id)
     with runner_for(area, tiling) as runner:
         prog.update(0.01, "measuring the area")
         plan, ready = plan_area(area, surface, tiling, runner=runner, params=p, keep=True,
@@ -206,15 +222,19 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
         if p.spacing is not None and isinstance(area, Catalog):
             warn_sparse_plantation(_density(area, plan, ready, runner))
         summary = TreesSummary()
+        tally = None if stands is None else StandsTally(stands)
         with kept_tiles(runner, output, tiling, plan, area, p, surface, bool(chm_out or png),
-                        png, csv, chm_out), contextlib.ExitStack() as stack:
+                        png, csv, chm_out, stands and stands.digest()), \
+                contextlib.ExitStack() as stack:
             sinks = _trees_sinks(stack, input, output, area, p, plan, surface, out, csv, chm_out,
-                                 png)
-            args = (area, p, plan, surface, bool(chm_out or png))
+                                 png, stands, stand_csv)
+            args = (area, p, plan, surface, bool(chm_out or png), stands)
             n = len(plan.tiles)
             for done, r in enumerate(run_tiles(runner, tile_trees, plan, args, ready,
                                                SubProgress(prog, 0.45, 0.95)), 1):
                 summary.add(r)
+                if tally is not None:
+                    tally.add(r)
                 # the last wave of tiles is written as it comes, while the other workers finish
                 sinks["layers"].add(r, flush=n - done < runner.workers)
                 for k in ("csv", "quicklook"):
@@ -224,12 +244,42 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
                     sinks["chm"].write(r["chm"], r["chm_left"], r["chm_top"])
             smooth = auto_smoothing(plan.crown_scale, plan.res)[0] if p.smooth == "auto" else p.smooth
             row = summary.row(p, plan, smooth)
-            sinks["layers"].finish(row, p.spacing is not None)
+            srows = None
+            if tally is not None:
+                srows = tally.rows(plan.res, p.spacing)
+                tally.check_cover(srows)
+                if stand_csv:
+                    write_stand_csv(sinks["stand_csv"], srows)
+            sinks["layers"].finish(row, p.spacing is not None,
+                                   None if srows is None else (srows, stands.geoms))
         if png:
-            sinks["quicklook"].write(png, _title(row, input), out.overwrite)
+            sinks["quicklook"].write(png, _title(row, input), out.overwrite,
+                                     stands=None if stands is None else (stands.ids, stands.geoms))
     prog.update(1.0, "done")
-    return check_failed(runner, _trees_result(output, area, plan, summary, row, p,
-                                              sinks["layers"], surface))
+    res = _trees_result(output, area, plan, summary, row, p, sinks["layers"], surface)
+    if stands is not None:
+        res.update(_stands_result(stands, srows, tally, stand_csv))
+    return check_failed(runner, res)
+
+
+def _stands_result(stands, rows, tally, stand_csv) -> dict:
+    """The stands' figures a trees run reports: each stand's key figures on one line."""
+    out = {"stands": len(stands), "stands_source": stands.source,
+           "stand_id_field": stands.id_field or "(numbered)",
+           "trees_outside_stands": tally.outside}
+    if stands.reprojection:
+        out["stands_reprojection"] = stands.reprojection
+    if stand_csv:
+        out["stand_csv"] = str(stand_csv)
+    for r in rows:
+        text = (f"{r['trees']} trees, {_round(r['trees_per_ha'], 0):g}/ha, mean height "
+                f"{_round(r['mean_height'], 1)} m, dominant height "
+                f"{_round(r['dominant_height'], 1)} m, {r['area_ha']:.2f} ha")
+        if "stocking_pct" in r:
+            text += (f", stocking {_round(r['stocking_pct'], 1)} % ({r['missing_trees']} "
+                     f"missing of {r['planting_positions']}, rows at {r['row_azimuth']:.1f}°)")
+        out[f"stand {r['stand_id']}"] = text
+    return out
 
 
 def _density(area, plan: AreaPlan, ready, runner) -> float:
@@ -244,12 +294,14 @@ def _density(area, plan: AreaPlan, ready, runner) -> float:
     return area_density(area, measurement_windows(area.extent, area.count), runner)
 
 
-def _trees_sinks(stack, input, output, area, p, plan, surface, out, csv, chm_out, png) -> dict:
+def _trees_sinks(stack, input, output, area, p, plan, surface, out, csv, chm_out, png,
+                 stands=None, stand_csv=None) -> dict:
     """The open outputs of a trees run (each a temporary file renamed when ``stack`` closes)."""
     sinks = {}
     gspec = GridSpec.from_bounds(*area.extent, plan.res, crs=area.crs)
+    ids = None if stands is None else stands.ids
     if output is None:
-        sinks["layers"] = TreeLayers(area.crs, p.method, out.nln)
+        sinks["layers"] = TreeLayers(area.crs, p.method, out.nln, ids)
     else:
         from ..io.vector import start_from_existing
 
@@ -257,7 +309,10 @@ def _trees_sinks(stack, input, output, area, p, plan, surface, out, csv, chm_out
         existing = start_from_existing(Path(output), tmp, out.append)
         sinks["layers"] = GpkgTreeLayers(tmp, area.crs, p.method, out.nln, existing=existing,
                                          metadata=_trees_meta(input, area, p, plan, surface),
-                                         layer_options=out.layer_options)
+                                         layer_options=out.layer_options, stand_ids=ids)
+    if stand_csv:
+        sinks["stand_csv"] = stack.enter_context(atomic_output(stand_csv, out.overwrite,
+                                                               param="-stand_csv"))
     if csv:
         ctmp = stack.enter_context(atomic_output(csv, out.overwrite, param="-csv"))
         sinks["csv"] = TreexCsv(ctmp, gspec)

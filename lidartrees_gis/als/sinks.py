@@ -14,37 +14,13 @@ import numpy as np
 from ..errors import OutputExistsError
 from ..io.styles import GPKG_DATASET_OPTIONS, LAYER_STYLES, embed_styles
 from .metrics import tree_ids
+from .stocking import axial_mean, stocking_fields
 from .tile import INT_FIELDS, TREE_FIELDS
 
 #: trees written to the GeoPackage together (one write per batch, not two per tile)
 BATCH_TREES = 20_000
 #: the quick look's largest side (pixels of the CHM drawn); larger areas are drawn coarser
 QUICKLOOK_CELLS = 2_000
-
-
-def stocking_fields(spacing, azimuth: float, st: dict) -> dict:
-    """The summary fields of plantation mode from the counts of
-    :func:`lidartrees_gis.als.stocking.stocking` (``expected, stocked, missing, extra,
-    planted_area_ha``; summed over the tiles)."""
-    e = st["expected"]
-    return {"spacing": f"{spacing[0]:g}x{spacing[1]:g}", "row_azimuth": azimuth,
-            "planting_positions": e, "stocked_positions": st["stocked"],
-            "missing_trees": st["missing"], "extra_tops": st["extra"],
-            "stocking_pct": 100.0 * st["stocked"] / e if e else float("nan"),
-            "planted_per_ha": 1e4 / (spacing[0] * spacing[1]),
-            "planted_area_ha": st["planted_area_ha"]}
-
-
-def axial_mean(azimuths, weights=None) -> float:
-    """The mean of row azimuths (degrees, an axis: 0 and 180 are the same rows) weighted by
-    ``weights``, in [0, 180). A median or plain mean of tiles at 179.9 and 0.1 gave 90."""
-    a = np.radians(2.0 * np.asarray(azimuths, float))
-    w = np.ones_like(a) if weights is None else np.asarray(weights, float)
-    if not np.isfinite(a).any() or w.sum() <= 0:
-        return float("nan")
-    ok = np.isfinite(a)
-    ang = 0.5 * np.degrees(np.arctan2((w[ok] * np.sin(a[ok])).sum(), (w[ok] * np.cos(a[ok])).sum()))
-    return round(float(ang % 180.0), 3) % 180.0
 
 
 class Tally:
@@ -169,35 +145,54 @@ def small_crowns(crown_area, n_cells) -> np.ndarray:
         (np.asarray(n_cells) < SMALL_CROWN_CELLS)
 
 
-def gap_arrays(st: dict, res: float, tile) -> dict:
+def stand_names(index, stand_ids) -> np.ndarray:
+    """Stand indices (-1: none) as the stands' ids ("" for none)."""
+    names = np.asarray(["", *stand_ids], dtype=object)
+    return names[np.asarray(index, np.int64) + 1]
+
+
+def gap_arrays(st: dict, res: float, tile, stand_ids=None) -> dict:
     """The empty planting positions of one tile: ids from the position's cell in the global
     grid (as tree_id), row and plant numbers as a crew counts them
-    (:func:`lidartrees_gis.als.stocking.crew_numbers`, on the tile's own lattice)."""
+    (:func:`lidartrees_gis.als.stocking.crew_numbers`, on the tile's own lattice) and, with
+    stands, the stand's id."""
     gx, gy = np.asarray(st["gaps_x"], float), np.asarray(st["gaps_y"], float)
-    return {"gap_id": tree_ids(gx, gy, res),
-            "row_number": np.asarray(st["gaps_row"], np.int64),
-            "plant_number": np.asarray(st["gaps_plant"], np.int64), "x": gx, "y": gy,
-            "tile": np.full(gx.size, "_".join(map(str, tile)), dtype=object)}
+    out = {"gap_id": tree_ids(gx, gy, res),
+           "row_number": np.asarray(st["gaps_row"], np.int64),
+           "plant_number": np.asarray(st["gaps_plant"], np.int64), "x": gx, "y": gy,
+           "tile": np.full(gx.size, "_".join(map(str, tile)), dtype=object)}
+    if stand_ids is not None:
+        out["stand_id"] = stand_names(st.get("gaps_zone", np.full(gx.size, -1)), stand_ids)
+    return out
 
 
 class TreeLayers:
     """The layers of a trees run, fed tile by tile: ``add`` a tile's result, ``finish`` with
     the summary row. This base keeps them in memory (the Python API's frames)."""
 
-    def __init__(self, crs, method: str, nln: str = ""):
-        self.crs, self.method = crs, method
-        self.names = {k: f"{nln}{k}" for k in ("tree_tops", "crowns", "gaps", "summary")}
-        self.parts, self.gaps, self.summary = [], [], None
+    def __init__(self, crs, method: str, nln: str = "", stand_ids=None):
+        self.crs, self.method, self.stand_ids = crs, method, stand_ids
+        self.names = {k: f"{nln}{k}" for k in ("tree_tops", "crowns", "gaps", "summary",
+                                                 "stands")}
+        self.parts, self.gaps, self.summary, self.stands = [], [], None, None
 
     def add(self, r: dict, flush: bool = False) -> None:
         if len(r["tree_id"]):
             self.parts.append(tree_arrays(r))
         st = r["stocking"]
         if st is not None and st["missing"]:
-            self.gaps.append(gap_arrays(st, r["res"], r["tile"]))
+            self.gaps.append(gap_arrays(st, r["res"], r["tile"], self.stand_ids))
 
-    def finish(self, summary: dict, plantation: bool) -> None:
-        self.summary, self.plantation = summary, plantation
+    def finish(self, summary: dict, plantation: bool, stands=None) -> None:
+        """The summary row; ``stands``: ``(rows, geometries)`` of the stands layer."""
+        self.summary, self.plantation, self.stands = summary, plantation, stands
+
+    def _stands_frame(self):
+        import geopandas as gpd
+
+        rows, geoms = self.stands
+        crs = self.crs.to_wkt() if self.crs is not None else None
+        return gpd.GeoDataFrame(rows, geometry=list(geoms), crs=crs)
 
     def _fields(self, parts: list) -> dict:
         data = {c: np.concatenate([p[c] for p in parts]) if parts else
@@ -205,6 +200,9 @@ class TreeLayers:
                 for c in TREE_FIELDS}
         for c in INT_FIELDS:
             data[c] = data[c].astype(np.int64)
+        stand = data.pop("stand")
+        if self.stand_ids is not None:
+            data["stand_id"] = stand_names(stand, self.stand_ids)
         data["method"] = np.full(len(data["tree_id"]), self.method, dtype=object)
         data["small_crown"] = small_crowns(data["crown_area"], data["n_cells"]).astype(np.int32)
         return data
@@ -226,10 +224,13 @@ class TreeLayers:
         if self.plantation:
             g = {k: np.concatenate([p[k] for p in self.gaps]) for k in self.gaps[0]} \
                 if self.gaps else {k: np.empty(0) for k in ("gap_id", "row_number",
-                                                            "plant_number", "x", "y", "tile")}
+                                                            "plant_number", "x", "y", "tile")
+                                   + (("stand_id",) if self.stand_ids is not None else ())}
             out[self.names["gaps"]] = gpd.GeoDataFrame(g, crs=crs,
                                                        geometry=shapely.points(g["x"], g["y"]))
         out[self.names["summary"]] = pd.DataFrame([self.summary])
+        if self.stands is not None:
+            out[self.names["stands"]] = self._stands_frame()
         return out
 
 
@@ -240,8 +241,8 @@ class GpkgTreeLayers(TreeLayers):
     appended to (``-append``); appending trees a layer already holds is refused."""
 
     def __init__(self, path, crs, method: str, nln="", *, existing=(), metadata=None,
-                 layer_options=None):
-        super().__init__(crs, method, nln)
+                 layer_options=None, stand_ids=None):
+        super().__init__(crs, method, nln, stand_ids)
         self.path, self.existing, self.created = path, set(existing), set()
         self.meta = {k: (v if isinstance(v, str) else json.dumps(v, default=str))
                      for k, v in (metadata or {}).items()}
@@ -295,7 +296,7 @@ class GpkgTreeLayers(TreeLayers):
         if st is not None and st["missing"]:
             import shapely
 
-            g = gap_arrays(st, r["res"], r["tile"])
+            g = gap_arrays(st, r["res"], r["tile"], self.stand_ids)
             self._raw(shapely.to_wkb(shapely.points(g["x"], g["y"])), g, self.names["gaps"],
                       "Point")
 
@@ -307,7 +308,7 @@ class GpkgTreeLayers(TreeLayers):
                           kind)
         self.pending, self.pending_rows = [], 0
 
-    def finish(self, summary: dict, plantation: bool) -> None:
+    def finish(self, summary: dict, plantation: bool, stands=None) -> None:
         import pandas as pd
         import pyogrio
 
@@ -320,7 +321,7 @@ class GpkgTreeLayers(TreeLayers):
             import shapely
 
             g = gap_arrays({"gaps_x": [], "gaps_y": [], "gaps_row": [], "gaps_plant": []}, 1.0,
-                           ())
+                           (), self.stand_ids)
             self._raw(shapely.to_wkb(shapely.points(g["x"], g["y"])), g, self.names["gaps"],
                       "Point")
         with warnings.catch_warnings():
@@ -328,6 +329,17 @@ class GpkgTreeLayers(TreeLayers):
             pyogrio.write_dataframe(pd.DataFrame([summary]), self.path,
                                     layer=self.names["summary"], driver="GPKG",
                                     append=self.names["summary"] in self.existing)
+            if stands is not None:
+                self.stands = stands
+                pyogrio.write_dataframe(self._stands_frame(), self.path,
+                                        layer=self.names["stands"], driver="GPKG",
+                                        append=self.names["stands"] in self.existing,
+                                        layer_options=self.lco)
+                from ..io.vector import describe_columns
+                from .stands import field_docs
+
+                describe_columns(self.path, self.names["stands"],
+                                 field_docs(self._stands_frame().columns))
         embed_styles(self.path, {self.names[k]: qml for k, qml in LAYER_STYLES.items()})
 
 
@@ -389,7 +401,8 @@ class QuickLook:
         inside = (rr >= 0) & (rr < self.spec.height) & (cc >= 0) & (cc < self.spec.width)
         np.fmax.at(self.chm, (rr[inside], cc[inside]), v[inside])
 
-    def write(self, path, title: str, overwrite: bool) -> None:
+    def write(self, path, title: str, overwrite: bool, stands=None) -> None:
+        """``stands``: ``(ids, polygons)`` outlined on the quick look."""
         import shapely
         from rasterio.features import rasterize
 
@@ -406,4 +419,4 @@ class QuickLook:
         rows, cols = self.spec.cell_index(x, y)
         gaps = (np.concatenate(self.gx), np.concatenate(self.gy)) if self.gx else None
         write_quicklook(path, self.chm, labels, rows, cols, spec=self.spec, title=title,
-                        overwrite=overwrite, gaps=gaps)
+                        overwrite=overwrite, gaps=gaps, stands=stands)

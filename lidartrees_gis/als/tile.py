@@ -20,9 +20,10 @@ from .trees import TreeParams, detect_trees
 
 #: the per-tree fields every tile sends back (and every output carries)
 TREE_FIELDS = ("tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_cells",
-               "row_number", "plant_number")
-#: the integer ones (row and plant numbers: plantation mode, 0 for a tree on no position)
-INT_FIELDS = ("tree_id", "n_cells", "row_number", "plant_number")
+               "row_number", "plant_number", "stand")
+#: the integer ones (row and plant numbers: plantation mode, 0 for a tree on no position;
+#: stand: the index of the tree's stand with -stands, -1 for none, written as stand_id)
+INT_FIELDS = ("tree_id", "n_cells", "row_number", "plant_number", "stand")
 
 #: plantation mode warns below this point density (points/m² of the area): planted trees lower
 #: than their in-row neighbours are often missed and the stocking is under-reported (measured on
@@ -52,7 +53,7 @@ def core_window(spec: GridSpec, core) -> tuple:
 
 
 def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=None, *,
-                         returns=None, within=None) -> dict:
+                         returns=None, within=None, zone=None) -> dict:
     """:func:`lidartrees_gis.als.trees.detect_trees` on a CHM, plus the stocking of the fitted
     planting grid in plantation mode (``params.spacing``).
 
@@ -64,9 +65,11 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
     (:func:`lidartrees_gis.als.stocking.detect_planting`; ``result["planting_detected"]`` gives
     its spacings), its empty positions get the same second look, without a stocking report.
     The cells of the added tops are ``result["gap_tops"]`` (rows, cols). ``within``: the box
-    (a tile's core) whose positions the stocking counts.
+    (a tile's core) whose positions the stocking counts; ``zone``: the stand of each cell
+    (:func:`lidartrees_gis.als.stands.zones`), each stand fitted its own lattice
+    (:func:`lidartrees_gis.als.stocking.stocking_by_stand`).
     """
-    from .stocking import detect_planting, gap_tops, stocking
+    from .stocking import detect_planting, gap_tops, stocking_by_stand
 
     result = detect_trees(arr, spec, params, heights=heights)
     check_cancel(progress)
@@ -82,8 +85,8 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
         return result
     as_progress(progress).update(0.75, "planting grid")
     t = result["table"]
-    st = stocking(t["x"], t["y"], arr, spec, spacing, min_height=params.min_height, grid=grid,
-                  within=within)
+    st = stocking_by_stand(t["x"], t["y"], arr, spec, spacing, zone if given else None,
+                           min_height=params.min_height, grid=grid, within=within)
     if returns is not None and st["missing"]:
         rows, cols = gap_tops(st["gaps_x"], st["gaps_y"], returns, result["smoothed"], spec,
                               spacing, top_x=t["x"], top_y=t["y"], min_height=params.min_height)
@@ -98,8 +101,8 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
                 result["planting_detected"] = detected
             if given:
                 t = result["table"]
-                st = stocking(t["x"], t["y"], arr, spec, spacing, min_height=params.min_height,
-                              within=within)
+                st = stocking_by_stand(t["x"], t["y"], arr, spec, spacing, zone,
+                                       min_height=params.min_height, within=within)
     if given:  # the stocking report (gaps layer) is for plantation mode only
         result["stocking"] = st
     result["gap_trees"] = added
@@ -109,6 +112,7 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
 def _empty_trees(tile: Tile, res: float) -> dict:
     out = {c: np.empty(0, np.int64 if c in INT_FIELDS else np.float64) for c in TREE_FIELDS}
     out.update({"wkb": [], "top_wkb": [], "gap_trees": 0, "planting": None, "stocking": None,
+                "stand_stocking": None, "stand_cells": {},
                 "chm": np.empty((0, 0), np.float32), "chm_left": tile.box[0],
                 "chm_top": tile.box[3], "res": res, "canopy_cells": 0, "points": 0,
                 "dropped": {}, "outlier_points": 0, "tile": tile.index})
@@ -116,11 +120,15 @@ def _empty_trees(tile: Tile, res: float) -> dict:
 
 
 def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: SurfaceOptions,
-               send_chm: bool = False, surfaces=None, progress=None) -> dict:
+               send_chm: bool = False, stands=None, surfaces=None, progress=None) -> dict:
     """The trees of one tile: the tops in its core with their whole crowns (WKB), their
     measures, the plantation counts of its core and, with ``send_chm``, its core CHM.
-    ``surfaces``: the tile's surfaces when they are already computed."""
+    ``stands``: :class:`lidartrees_gis.als.stands.Stands`: each tree's stand, each stand's
+    cells and (plantation mode) its own lattice's counts in the core. ``surfaces``: the tile's
+    surfaces when they are already computed."""
     import shapely
+
+    from .stands import locate, stand_cells, zones
 
     prog = as_progress(progress)
     s = surfaces if surfaces is not None else box_surfaces(area, tile.box, plan.res, surface,
@@ -131,9 +139,10 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
     check_cancel(prog)
     prog.update(0.85 if surfaces is None else 0.5, "detecting trees")
     whole = len(plan.tiles) == 1  # one tile: its core is the whole area
+    zone = zones(stands, spec) if stands is not None else None
     if params.looks_at_planting:
         r = detect_with_stocking(s["chm"], spec, params, heights=s["heights"],
-                                 returns=s["returns"], progress=prog,
+                                 returns=s["returns"], progress=prog, zone=zone,
                                  within=None if whole or params.spacing is None else tile.core)
     else:
         r = detect_trees(s["chm"], spec, params, heights=s["heights"])
@@ -148,13 +157,16 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
     else:
         t = {**t, "row_number": np.zeros(len(t["x"]), np.int64),
              "plant_number": np.zeros(len(t["x"]), np.int64)}
+    t["stand"] = locate(stands, t["x"], t["y"])
     out = {c: np.asarray(t[c])[idx] for c in TREE_FIELDS}
     out["gap_trees"] = _core_gap_trees(r, t, idx)
     out["planting"] = r.get("planting_detected")
     out["stocking"] = None if st is None else {
         **{k: st[k] for k in ("expected", "stocked", "missing", "extra", "planted_area_ha",
-                              "gaps_x", "gaps_y", "gaps_row", "gaps_plant", "numbering")},
+                              "gaps_x", "gaps_y", "gaps_row", "gaps_plant", "gaps_zone",
+                              "numbering")},
         "azimuth": st["grid"].azimuth}
+    out["stand_stocking"] = None if st is None else st["zones"]
     out["wkb"] = shapely.to_wkb(np.asarray(polys, dtype=object)) if idx.size else []
     out["top_wkb"] = shapely.to_wkb(shapely.points(out["x"], out["y"])) if idx.size else []
     r0, r1, c0, c1 = core_window(spec, tile.core)
@@ -163,7 +175,9 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
                 "chm_left": spec.left + c0 * spec.res, "chm_top": spec.top - r0 * spec.res,
                 "res": spec.res, "canopy_cells": int(np.isfinite(core).sum()),
                 "points": s["points"], "dropped": s["dropped"],
-                "outlier_points": s["outlier_points"], "tile": tile.index})
+                "outlier_points": s["outlier_points"], "tile": tile.index,
+                "stand_cells": {} if zone is None else stand_cells(zone[r0:r1, c0:c1], core,
+                                                                     params.min_height)})
     return out
 
 

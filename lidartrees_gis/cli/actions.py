@@ -121,7 +121,9 @@ def trees(input, output, **kw):
 
     r = trees_run(input, output, params=_tree_params(kw), surface=_surface(kw), read=_read(kw),
                   tiling=_tiling(kw), out=_out(kw), png=kw.get("png"), csv=kw.get("csv"),
-                  chm_out=kw.get("chm_out"), progress=kw.get("progress"))
+                  chm_out=kw.get("chm_out"), stands=kw.get("stands") or None,
+                  stand_id=kw.get("stand_id") or None, stand_csv=kw.get("stand_csv") or None,
+                  progress=kw.get("progress"))
     return {k: v for k, v in r.items() if k not in ("tree_ids", "layers")}
 
 

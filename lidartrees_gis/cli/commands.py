@@ -260,9 +260,20 @@ COMMANDS = {
                flag="-png", advanced=True),
          Param("csv", "output", "Also write a CSV in TreeX's layout", flag="-csv", advanced=True),
          Param("chm_out", "output", "Also write the CHM GeoTIFF", flag="-chm_out", advanced=True),
+         Param("stands", "vector", "Stand (talhão) polygons, PATH or PATH:LAYER of any OGR "
+               "polygon source (GeoPackage, shapefile): every tree, crown and gap gets its "
+               "stand_id and a stands layer the per-stand inventory (trees/ha, mean and dominant "
+               "height, crown diameter, canopy cover, height classes; with -spacing each stand's "
+               "own lattice and stocking)", flag="-stands"),
+         Param("stand_id", "str", "The stands' id field (default: the first of stand_id, "
+               "talhao, id_talhao, cod_talhao, codigo, id, name, nome present; else 1, 2, ...)",
+               flag="-stand_id", advanced=True),
+         Param("stand_csv", "output", "Also write the per-stand inventory as a CSV table",
+               flag="-stand_csv", advanced=True),
          *READ_GEO, OVERWRITE,
          Param("append", "bool", "Append to an existing GeoPackage", flag="-append",
-               default=False, advanced=True)), "trees", outputs=("output", "png", "csv", "chm_out")),
+               default=False, advanced=True)), "trees",
+        outputs=("output", "png", "csv", "chm_out", "stand_csv")),
     "compare": Command(
         "compare", "Trees", "Castro (2006) Table 1: ten smoothing/segmentation configurations compared",
         (Param("input", "input", "Point file (LAS/LAZ, XYZ) or a CHM GeoTIFF"),

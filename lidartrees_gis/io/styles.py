@@ -10,7 +10,8 @@ import sqlite3
 from pathlib import Path
 
 #: the style of each kind of layer (the layer's name without its ``-nln`` prefix)
-LAYER_STYLES = {"tree_tops": "tree_tops.qml", "crowns": "crowns.qml", "gaps": "gaps.qml"}
+LAYER_STYLES = {"tree_tops": "tree_tops.qml", "crowns": "crowns.qml", "gaps": "gaps.qml",
+                "stands": "stands.qml"}
 
 #: dataset creation options of every GeoPackage written: version 1.2 (QGIS 3.22 warns that
 #: 1.4, GDAL's default since 3.10, "may only be partially supported")

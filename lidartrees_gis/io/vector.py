@@ -81,3 +81,57 @@ def write_gpkg(path, layers: dict, *, overwrite=False, append=False, layer_optio
                                         else GPKG_DATASET_OPTIONS)
         if styles:
             embed_styles(tmp, styles)
+
+
+def read_polygons(source, *, param: str):
+    """The features of a polygon vector source: any OGR file (GeoPackage, shapefile, GeoJSON,
+    ...) given as ``PATH`` or ``PATH:LAYER``. Returns ``(GeoDataFrame, description)``; errors
+    name ``param`` and the file."""
+    import geopandas as gpd
+
+    text = str(source).strip()
+    path, layer = text, None
+    if not Path(path).exists() and ":" in text:
+        path, layer = text.rsplit(":", 1)
+    if not Path(path).exists():
+        raise InputError(f"{param}: {text}: no such file")
+    try:
+        gdf = gpd.read_file(path, layer=layer or None)
+    except Exception as exc:  # noqa: BLE001 - GDAL says why
+        from ..errors import ReadError
+
+        raise ReadError(f"{param}: {path}: cannot read as a vector file "
+                        f"({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})") from None
+    return gdf, f"{path}{':' + layer if layer else ''}"
+
+
+_EXT_SQL = ("CREATE TABLE IF NOT EXISTS gpkg_extensions (table_name TEXT, column_name TEXT, "
+            "extension_name TEXT NOT NULL, definition TEXT NOT NULL, scope TEXT NOT NULL, "
+            "CONSTRAINT ge_tce UNIQUE (table_name, column_name, extension_name))")
+_DATA_COLUMNS_SQL = ("CREATE TABLE IF NOT EXISTS gpkg_data_columns (table_name TEXT NOT NULL, "
+                     "column_name TEXT NOT NULL, name TEXT, title TEXT, description TEXT, "
+                     "mime_type TEXT, constraint_name TEXT, CONSTRAINT pk_gdc PRIMARY KEY "
+                     "(table_name, column_name), CONSTRAINT gdc_tn UNIQUE (table_name, name))")
+
+
+def describe_columns(gpkg, layer: str, docs: dict) -> None:
+    """Write each column's description (``{column: text}``) into the GeoPackage's
+    ``gpkg_data_columns`` table (the GeoPackage schema extension; GDAL and QGIS show it as
+    the field's comment)."""
+    import sqlite3
+
+    con = sqlite3.connect(str(gpkg))
+    try:
+        cols = [r[1] for r in con.execute(f'PRAGMA table_info("{layer}")')]
+        con.execute(_EXT_SQL)
+        con.execute(_DATA_COLUMNS_SQL)
+        con.execute("INSERT OR IGNORE INTO gpkg_extensions VALUES ('gpkg_data_columns', NULL, "
+                    "'gpkg_schema', 'http://www.geopackage.org/spec/#extension_schema', "
+                    "'read-write')")
+        for c in cols:
+            if c in docs:
+                con.execute("INSERT OR REPLACE INTO gpkg_data_columns (table_name, column_name, "
+                            "name, description) VALUES (?, ?, ?, ?)", (layer, c, c, docs[c]))
+        con.commit()
+    finally:
+        con.close()

@@ -205,24 +205,18 @@ def read_area(area, crs_wkt=None):
                 raise InputError(f"-area: expected xmin,ymin,xmax,ymax with xmin < xmax and "
                                  f"ymin < ymax, got {text!r}")
             return shapely.box(x0, y0, x1, y1), f"box {x0:g},{y0:g},{x1:g},{y1:g}"
-    path, layer = text, None
-    if not Path(path).exists() and ":" in text:
-        path, layer = text.rsplit(":", 1)
-    if not Path(path).exists():
-        raise InputError(f"-area: {text}: neither xmin,ymin,xmax,ymax nor a vector file")
-    import geopandas as gpd
+    from ..io.vector import read_polygons
 
-    try:
-        gdf = gpd.read_file(path, layer=layer)
-    except Exception as exc:  # noqa: BLE001
-        raise ReadError(f"-area: {path}: cannot read as a vector file ({exc})") from None
+    if not Path(text).exists() and not (":" in text and Path(text.rsplit(":", 1)[0]).exists()):
+        raise InputError(f"-area: {text}: neither xmin,ymin,xmax,ymax nor a vector file")
+    gdf, name = read_polygons(text, param="-area")
     gdf = gdf[gdf.geometry.notna() & gdf.geometry.geom_type.isin(["Polygon", "MultiPolygon"])]
     if gdf.empty:
         raise InputError(f"-area: {text}: no polygon in it")
     if crs_wkt and gdf.crs is not None:
         gdf = gdf.to_crs(crs_wkt)
     geom = shapely.make_valid(shapely.union_all(gdf.geometry.values))
-    return geom, f"{path}{':' + layer if layer else ''} ({len(gdf)} polygon(s), {geom.area:.0f} m²)"
+    return geom, f"{name} ({len(gdf)} polygon(s), {geom.area:.0f} m²)"
 
 
 def evaluate_file(detected, reference, output=None, *, layer=None, ref_layer=None,

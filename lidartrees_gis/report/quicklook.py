@@ -11,11 +11,29 @@ from ..crs import crs_label
 from .classes import height_classes, round_length
 
 
+def _draw_stands(ax, ids, geoms) -> None:
+    """Stand outlines (blue, not in the CHM's greens nor the crowns' magentas) with their ids."""
+    import shapely
+
+    for sid, g in zip(ids, geoms):
+        for poly in getattr(g, "geoms", [g]):
+            for ring in [poly.exterior, *poly.interiors]:
+                x, y = np.asarray(ring.coords).T
+                ax.plot(x, y, color="#08519c", linewidth=1.4, zorder=5)
+        p = shapely.point_on_surface(g)
+        ax.annotate(str(sid), (p.x, p.y), color="#08519c", fontsize=9, fontweight="bold",
+                    ha="center", va="center", zorder=6,
+                    bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none",
+                          "alpha": 0.7})
+    ax.plot([], [], color="#08519c", linewidth=1.4, label=f"stands ({len(ids)})")
+
+
 def write_quicklook(path, chm, labels, rows, cols, *, spec=None, title=None, overwrite=False,
-                    gaps=None):
+                    gaps=None, stands=None):
     """Quick-look PNG: the CHM in colour classes with a legend, crown outlines and tree tops,
     the missing trees of plantation mode (``gaps``: map x, y), map coordinates on the axes, a
-    scale bar and a title (e.g. the stand summary).
+    scale bar and a title (e.g. the stand summary). ``stands``: ``(ids, shapely polygons)``
+    drawn as outlines labelled with their ids (map coordinates; needs ``spec``).
 
     ``spec`` (:class:`GridSpec`) gives the coordinates and scale bar; without it the axes are in
     cells. The title and the summary are also stored as PNG text (Title, Description).
@@ -70,6 +88,8 @@ def write_quicklook(path, chm, labels, rows, cols, *, spec=None, title=None, ove
         ax.scatter(gx, gy, s=max(16.0, 3000.0 / max(len(r), 1) ** 0.5 / 4), marker="x",
                    c="#000000", linewidths=1.2, zorder=4, label=f"missing trees ({n_gaps:,})")
     ax.plot([], [], color=(0.85, 0.0, 0.55), label="crowns")
+    if stands is not None and spec is not None:
+        _draw_stands(ax, *stands)
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 0.2), fontsize=8, frameon=False)
     ax.set_xlim(left, right)
     ax.set_ylim(bottom, topy)

@@ -440,3 +440,51 @@ def test_styles_render_readably_on_the_chm(qgis_app, tmp_path, data):
     assert green.mean() > 0.2, green.mean()
     assert magenta.mean() > 0.02 and red.sum() > 200, (magenta.mean(), red.sum())
     print("rendered", png)
+
+
+def test_stands_layer_parameter_loads_a_styled_stands_layer(qgis_app, tmp_path, stand):
+    """Issue 23 in QGIS: a polygon layer (a file layer, and a memory layer saved for the
+    command) as STANDS; the stands layer is loaded with its outline and labels."""
+    import processing
+    import shapely
+    from pyproj import CRS
+    from qgis.core import QgsFeature, QgsGeometry, QgsProject, QgsVectorLayer
+
+    from lidartrees_gis.io.lasout import write_points
+
+    pts, truth = stand
+    las = tmp_path / "stand.las"
+    write_points(las, pts.x, pts.y, pts.z, crs=CRS.from_epsg(29194),
+                 classification=pts.classification)
+    x0, y0, x1, y1 = pts.x.min(), pts.y.min(), pts.x.max(), pts.y.max()
+    mid = (x0 + x1) / 2
+    halves = [shapely.box(x0, y0, mid, y1), shapely.box(mid, y0, x1, y1)]
+    gpd.GeoDataFrame({"talhao": ["W", "E"]}, geometry=halves, crs="EPSG:29194").to_file(
+        tmp_path / "talhoes.gpkg", layer="talhoes")
+    file_layer = QgsVectorLayer(f"{tmp_path / 'talhoes.gpkg'}|layername=talhoes", "talhoes",
+                                "ogr")
+    assert file_layer.isValid()
+    gpkg = tmp_path / "t.gpkg"
+    res = processing.runAndLoadResults("lidartrees:trees", {
+        "INPUT": str(las), "OUTPUT": str(gpkg), "STANDS": file_layer,
+        "STAND_CSV": str(tmp_path / "s.csv")})
+    layers = QgsProject.instance().mapLayersByName("stands")
+    assert layers, "no stands layer loaded"
+    lyr = layers[-1]
+    assert lyr.featureCount() == 2 and lyr.crs().authid() == "EPSG:29194"
+    assert lyr.labelsEnabled() and lyr.renderer().type() == "singleSymbol"
+    assert "trees_per_ha" in lyr.labeling().settings().fieldName
+    got = {f["stand_id"]: f["trees"] for f in lyr.getFeatures()}
+    assert set(got) == {"W", "E"} and sum(got.values()) == res["TREES"]
+    west = int((truth["x"] < mid).sum())
+    assert abs(got["W"] - west) <= 0.03 * west
+    # a memory layer has no file: it is saved for the command
+    mem = QgsVectorLayer("Polygon?crs=EPSG:29194&field=stand_id:string", "mem", "memory")
+    f = QgsFeature(mem.fields())
+    f.setAttributes(["all"])
+    f.setGeometry(QgsGeometry.fromWkt(shapely.box(x0, y0, x1, y1).wkt))
+    mem.dataProvider().addFeatures([f])
+    out2 = tmp_path / "m.gpkg"
+    run("trees", {"INPUT": str(las), "OUTPUT": str(out2), "STANDS": mem})
+    st = gpd.read_file(out2, layer="stands")
+    assert list(st["stand_id"]) == ["all"] and st["trees"].iloc[0] == res["TREES"]

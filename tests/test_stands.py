@@ -1,0 +1,191 @@
+"""Stands (talhões): -stands on the CLI and the Python API, each stand's own planting lattice,
+the stands layer, its CSV, field descriptions and style, tiled = untiled per stand, bad stand
+files. The two-stand file: stand T-01 3 x 2 m with rows north-south, stand T-02 3 x 2 m with
+rows at 145° (the generator's stand turned by 35°), 5 % missing trees, 12 points/m²."""
+import sqlite3
+import warnings
+
+import geopandas as gpd
+import numpy as np
+import pandas as pd
+import pytest
+import shapely
+from pyproj import CRS
+
+from lidartrees_gis.cli import main
+from lidartrees_gis.errors import DataWarning, InputError
+from lidartrees_gis.io.lasout import write_points
+from lidartrees_gis.synthetic import StandParams, make_stand
+
+OX, OY = 412300.0, 7952400.0
+TURN = 35.0  # degrees, counter-clockwise: rows at 0° become rows at 145°
+
+
+def _turn(x, y, cx, cy, deg):
+    a = np.radians(deg)
+    dx, dy = np.asarray(x) - cx, np.asarray(y) - cy
+    return cx + dx * np.cos(a) - dy * np.sin(a), cy + dx * np.sin(a) + dy * np.cos(a)
+
+
+@pytest.fixture(scope="module")
+def two_stands(tmp_path_factory):
+    """A LAS file of two 80 x 80 m stands side by side, their polygons and the truth."""
+    d = tmp_path_factory.mktemp("stands")
+    common = dict(density=12, slope_x=0, slope_y=0, missing_fraction=0.05)
+    a_pts, a = make_stand(StandParams(width=80, height=80, seed=1, origin_x=OX, origin_y=OY,
+                                      **common))
+    b_pts, b = make_stand(StandParams(width=120, height=120, seed=2, origin_x=OX + 60,
+                                      origin_y=OY - 20, mean_crown_radius=1.7, **common))
+    cx, cy = OX + 120, OY + 40
+    bx, by = _turn(b_pts.x, b_pts.y, cx, cy, TURN)
+    ka = a_pts.x < OX + 80
+    kb = (bx >= OX + 80) & (bx < OX + 160) & (by >= OY) & (by < OY + 80)
+    write_points(d / "two.las", np.r_[a_pts.x[ka], bx[kb]], np.r_[a_pts.y[ka], by[kb]],
+                 np.r_[a_pts.z[ka], b_pts.z[kb]], crs=CRS.from_epsg(31984),
+                 classification=np.r_[a_pts.classification[ka], b_pts.classification[kb]])
+
+    def inside_b(x, y):
+        x, y = _turn(x, y, cx, cy, TURN)
+        return x, y, (x >= OX + 80) & (x < OX + 160) & (y >= OY) & (y < OY + 80)
+
+    tbx, tby, kt = inside_b(b["x"], b["y"])
+    _, _, km = inside_b(b["_missing_x"], b["_missing_y"])
+    stands = gpd.GeoDataFrame({"Talhão": ["T-01", "T-02"]},
+                              geometry=[shapely.box(OX, OY, OX + 80, OY + 80),
+                                        shapely.box(OX + 80, OY, OX + 160, OY + 80)],
+                              crs="EPSG:31984")
+    stands.to_file(d / "stands.gpkg", layer="talhoes")
+    truth = {"T-01": {"trees": len(a["x"]), "missing": len(a["_missing_x"])},
+             "T-02": {"trees": int(kt.sum()), "missing": int(km.sum())}}
+    trees = pd.DataFrame({"x": np.r_[a["x"], tbx[kt]], "y": np.r_[a["y"], tby[kt]],
+                          "height": np.r_[a["height"], b["height"][kt]]})
+    return {"dir": d, "las": d / "two.las", "stands": d / "stands.gpkg", "truth": truth,
+            "trees": trees, "frame": stands}
+
+
+def _run(argv):
+    assert main(argv + ["-q"]) == 0, argv
+
+
+def test_each_stand_gets_its_own_lattice_and_stocking(two_stands, capsys):
+    d = two_stands["dir"]
+    out, csv = d / "p.gpkg", d / "p.csv"
+    _run(["trees", str(two_stands["las"]), str(out), "-stands", str(two_stands["stands"]),
+          "-spacing", "3x2", "-stand_csv", str(csv)])
+    printed = capsys.readouterr().out
+    assert "stand_id_field: Talhão" in printed and "stand T-02:" in printed
+    stands = gpd.read_file(out, layer="stands")
+    assert list(stands["stand_id"]) == ["T-01", "T-02"]
+    assert stands.crs.to_epsg() == 31984
+    az = dict(zip(stands["stand_id"], stands["row_azimuth"]))
+    assert min(az["T-01"], 180 - az["T-01"]) < 1.0  # north-south rows
+    assert abs(az["T-02"] - (180 - TURN)) < 1.0  # turned by 35°
+    for _, s in stands.iterrows():
+        t = two_stands["truth"][s["stand_id"]]
+        true_pct = 100 * (s["planting_positions"] - t["missing"]) / s["planting_positions"]
+        assert abs(s["stocking_pct"] - true_pct) <= 1.0, (s["stand_id"], s["stocking_pct"],
+                                                          true_pct)
+        assert abs(s["missing_trees"] - t["missing"]) <= 3
+        assert abs(s["area_ha"] - 0.64) < 1e-6
+        assert s["data_cover_pct"] > 99
+        assert s["dominant_height"] > s["mean_height"]
+        hist = [c for c in stands.columns if c.startswith("trees_") and c.endswith("m")]
+        assert sum(s[c] for c in hist) == s["trees"]
+    gaps = gpd.read_file(out, layer="gaps")
+    assert gaps["stand_id"].value_counts().to_dict() == dict(zip(stands["stand_id"],
+                                                                 stands["missing_trees"]))
+    tops = gpd.read_file(out, layer="tree_tops")
+    crowns = gpd.read_file(out, layer="crowns")
+    assert (tops["stand_id"] == crowns["stand_id"]).all()
+    counts = tops["stand_id"].value_counts().to_dict()
+    assert counts == dict(zip(stands["stand_id"], stands["trees"]))
+    # the CSV holds the layer's figures
+    table = pd.read_csv(csv)
+    assert list(table["stand_id"]) == ["T-01", "T-02"]
+    assert list(table["missing_trees"]) == list(stands["missing_trees"])
+    assert np.allclose(table["dominant_height"], stands["dominant_height"], atol=1e-3)
+    # described fields and a default style
+    con = sqlite3.connect(out)
+    docs = dict(con.execute("SELECT column_name, description FROM gpkg_data_columns "
+                            "WHERE table_name = 'stands'"))
+    styled = [r[0] for r in con.execute("SELECT f_table_name FROM layer_styles")]
+    con.close()
+    assert "Assmann" in docs["dominant_height"] and "100 tallest" in docs["dominant_height"]
+    assert "stands" in styled
+
+
+def test_stands_figures_do_not_depend_on_the_tiling(two_stands):
+    d = two_stands["dir"]
+    figs = []
+    for name, extra in (("one", []), ("tiled", ["-tile_size", "60", "-workers", "1"])):
+        out = d / f"{name}.gpkg"
+        _run(["trees", str(two_stands["las"]), str(out), "-stands", str(two_stands["stands"]),
+              "-spacing", "3x2", *extra])
+        figs.append(gpd.read_file(out, layer="stands").set_index("stand_id"))
+    one, tiled = figs
+    assert list(one["trees"]) == list(tiled["trees"])
+    assert np.allclose(one["mean_height"], tiled["mean_height"], atol=1e-9)
+    # the CHM of a tile equals the whole one beyond a buffer from the outer edge
+    assert np.allclose(one["canopy_cover_pct"], tiled["canopy_cover_pct"], atol=0.05)
+    assert (abs(one["planting_positions"] - tiled["planting_positions"]) <= 2).all()
+    assert (abs(one["missing_trees"] - tiled["missing_trees"]) <= 2).all()
+
+
+def test_stands_from_python_and_trees_outside_every_stand(two_stands):
+    from lidartrees_gis import find_trees
+
+    half = two_stands["frame"].iloc[[0]].copy()  # only T-01 given
+    half["talhao"] = ["A"]
+    tops, crowns, summary = find_trees(str(two_stands["las"]), stands=half, stand_id="talhao")
+    st = summary["stands"]
+    assert list(st["stand_id"]) == ["A"]
+    inside = (tops["stand_id"] == "A")
+    assert inside.sum() == st["trees"].iloc[0]
+    assert (tops.loc[~inside, "stand_id"] == "").all() and (~inside).sum() > 900
+    # the trees in A are those whose top lies in its polygon
+    assert (tops.loc[inside, "x"] < OX + 80).all() and (tops.loc[~inside, "x"] >= OX + 80).all()
+
+
+def test_stands_in_another_crs_are_reprojected_and_said_so(two_stands, capsys):
+    d = two_stands["dir"]
+    sad = two_stands["frame"].to_crs("EPSG:29194")  # SAD69 / UTM 24S
+    sad.to_file(d / "sad69.gpkg")
+    out = d / "sad.gpkg"
+    _run(["trees", str(two_stands["las"]), str(out), "-stands", str(d / "sad69.gpkg")])
+    printed = capsys.readouterr().out
+    line = [ln for ln in printed.splitlines() if ln.startswith("stands_reprojection:")]
+    assert line and "EPSG:29194" in line[0] and "accuracy" in line[0]
+    stands = gpd.read_file(out, layer="stands")
+    assert abs(stands["area_ha"].iloc[0] - 0.64) < 0.001
+
+
+def test_bad_stand_files_are_named(two_stands, tmp_path, capsys):
+    from lidartrees_gis.als.stands import load_stands
+
+    crs = CRS.from_epsg(31984)
+    bow = shapely.Polygon([(OX, OY), (OX + 80, OY + 80), (OX + 80, OY), (OX, OY + 80)])
+    g = gpd.GeoDataFrame({"id": [1, 2, 3]}, geometry=[shapely.box(OX, OY, OX + 40, OY + 40),
+                                                      bow, shapely.Polygon()], crs="EPSG:31984")
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        st = load_stands(g, crs)
+    text = [str(x.message) for x in w if issubclass(x.category, DataWarning)]
+    assert any("feature 2 is not a valid polygon" in t and "Self-intersection" in t
+               for t in text), text
+    assert any("feature 3 has no geometry" in t for t in text), text
+    assert st.ids == ("1", "2") and all(shapely.is_valid(st.geoms))
+    pts = gpd.GeoDataFrame({"id": [1]}, geometry=[shapely.Point(OX, OY)], crs="EPSG:31984")
+    with pytest.raises(InputError, match="feature 1 is a Point, not a polygon"):
+        load_stands(pts, crs)
+    with pytest.raises(InputError, match="has no field 'lote'.*fields: id"):
+        load_stands(g.iloc[[0]], crs, "lote")
+    out = tmp_path / "t.gpkg"
+    assert main(["trees", str(two_stands["las"]), str(out), "-stands",
+                 str(tmp_path / "none.gpkg"), "-q"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "-stands:" in err[0] and "none.gpkg" in err[0]
+    assert not out.exists()
+    assert main(["trees", str(two_stands["las"]), str(out), "-stand_csv",
+                 str(tmp_path / "s.csv"), "-q"]) == 1
+    assert "-stand_csv: needs -stands" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
