@@ -271,3 +271,43 @@ def test_ground_on_a_strip_one_refinement_cell_wide():
     veg[::10] = True
     assert not ground[veg].any()
     assert ground[~veg].mean() > 0.9
+
+
+def test_second_round_of_the_independent_fuzzer(tmp_path, capsys):
+    """Its 10,000-case run found: a laszip VLR whose chunk size was overwritten (3.7 billion
+    points a chunk) aborted the process (the decoder allocated 205 GB); -iterations 1e9 ran
+    until killed; -nln /tmp/x raised GDAL's error as a traceback; stem -hspacing inf an
+    IndexError. Now one line each, nothing written."""
+    import struct
+
+    from lidartrees_gis.io.lasout import write_points
+
+    rng = np.random.default_rng(1)
+    laz = tmp_path / "a.laz"
+    write_points(laz, rng.random(2000) * 50, rng.random(2000) * 50, rng.random(2000) * 20,
+                 crs=CRS.from_epsg(31984))
+    b = bytearray(laz.read_bytes())
+    hsize, = struct.unpack_from("<H", b, 94)
+    offset, nvlr = struct.unpack_from("<II", b, 96)
+    pos = hsize
+    for _ in range(nvlr):  # the laszip VLR's chunk size, 12 bytes into its body
+        user, rec, length = bytes(b[pos + 2:pos + 18]).rstrip(b"\0"), *struct.unpack_from(
+            "<HH", b, pos + 18)
+        if user == b"laszip encoded" and rec == 22204:
+            struct.pack_into("<I", b, pos + 54 + 12, 3_674_260_304)
+        pos += 54 + length
+    bad = tmp_path / "bad.laz"
+    bad.write_bytes(bytes(b))
+    cases = [(["info", str(bad)], "points per chunk"),
+             (["grid", str(bad), str(tmp_path / "g.tif")], "points per chunk"),
+             (["ground", str(laz), str(tmp_path / "g.laz"), "-iterations", "1e9"],
+              "-iterations must be 1 to 100"),
+             (["trees", str(laz), str(tmp_path / "t.gpkg"), "-nln", "/tmp/x"],
+              "-nln: '/tmp/x'"),
+             (["stem", str(laz), str(tmp_path / "s"), "-hspacing", "inf"],
+              "-hspacing must be a number > 0")]
+    for argv, words in cases:
+        assert main(argv + ["-q"]) == 1, argv
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and words in err[0], (argv, err)
+    assert sorted(q.name for q in tmp_path.iterdir()) == ["a.laz", "bad.laz"]
