@@ -327,6 +327,8 @@ def fuzz(n_cases: int, seed: int, jobs: int, root: Path, first: int = 0) -> dict
             os._exit(0)
     os.waitpid(pid, 0)
     seeds = sorted(seeds_dir.iterdir())
+    if not seeds:
+        raise SystemExit(f"no seed file made from {DATA} (set LIDARTREES_DATA to the shared data)")
     # import once before forking, but run nothing here: a run starts threads (the LAZ
     # decoder's, numba's), and a process forked from a threaded one may inherit a held lock
     # and hang (every "hang" of a first version was that, on unmutated files)

@@ -143,10 +143,18 @@ def main():
     polys.saveNamedStyle(str(HERE / "crowns.qml"))
     from qgis.core import QgsSingleSymbolRenderer
 
-    gaps = QgsVectorLayer("Point?field=gap_id:integer", "gaps", "memory")
-    gaps.setRenderer(QgsSingleSymbolRenderer(QgsMarkerSymbol.createSimple(
+    from qgis.core import QgsCategorizedSymbolRenderer, QgsRendererCategory
+
+    gaps = QgsVectorLayer("Point?field=gap_id:integer&field=status:string", "gaps", "memory")
+    missing = QgsMarkerSymbol.createSimple(
         {"name": "cross2", "color": "#e31a1c", "outline_color": "#e31a1c", "outline_width": "0.6",
-         "size": "3"})))
+         "size": "3"})
+    suppressed = QgsMarkerSymbol.createSimple(
+        {"name": "circle", "color": "0,0,0,0", "outline_color": "#08519c",
+         "outline_width": "0.5", "size": "2.4"})
+    gaps.setRenderer(QgsCategorizedSymbolRenderer("status", [
+        QgsRendererCategory("missing", missing, "missing tree (gap)"),
+        QgsRendererCategory("suppressed", suppressed, "suppressed tree (no top)")]))
     gaps.saveNamedStyle(str(HERE / "gaps.qml"))
     stands_style(HERE / "stands.qml")
     app.exitQgis()

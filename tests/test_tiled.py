@@ -175,7 +175,9 @@ def test_plantation_mode_in_tiles_reports_the_stocking_of_one_file(tmp_path):
     assert abs(s.row_azimuth - whole["row_azimuth"]) < 0.5
     gaps = pyogrio.read_dataframe(out, layer="gaps")
     one = pyogrio.read_dataframe(tmp_path / "one.gpkg", layer="gaps")
-    assert len(gaps) == len(one) == s.missing_trees and gaps.gap_id.is_unique
+    assert gaps.gap_id.is_unique and (gaps.status == "suppressed").sum() == s.suppressed_trees
+    gaps, one = gaps[gaps.status == "missing"], one[one.status == "missing"]
+    assert len(gaps) == len(one) == s.missing_trees
     d = np.hypot(gaps.x.to_numpy()[:, None] - one.x.to_numpy()[None, :],
                  gaps.y.to_numpy()[:, None] - one.y.to_numpy()[None, :]).min(axis=1)
     assert (d < 0.5).all()  # the same empty positions

@@ -88,13 +88,17 @@ def test_adaptive_window_scales_with_crowns_and_height():
     assert len(adaptive_maxima(chm2, res, crown_scale=0.3, dominant_height=30.0)[0]) == 2
 
 
-def test_spacing_sets_the_crown_scale_and_auto_is_recorded():
+def test_spacing_does_not_set_the_crown_scale_and_auto_is_recorded():
+    """Issue 23: the crown scale is measured on the CHM in plantation mode too (0.3 x the
+    smaller spacing was fixed before, and gave false tops on wide crowns' flanks)."""
     res = 0.25
     tops = [(x, y, 23.0) for x in np.arange(1.5, 15, 3.0) for y in np.arange(1, 15, 2.0)]
     chm = crowns((60, 60), tops, res, radius=1.5)
     spec = GridSpec(0, 15, res, 60, 60)
     r = detect_trees(chm, spec, TreeParams(spacing="3x2"))
-    assert r["auto"]["crown_scale"] == pytest.approx(0.6) and r["auto"]["crown_scale_source"] == "spacing"
+    d = detect_trees(chm, spec, TreeParams())
+    assert r["auto"]["crown_scale_source"] == "measured"
+    assert r["auto"]["crown_scale"] == pytest.approx(d["auto"]["crown_scale"])
     assert r["tops"] == "aw" and len(r["table"]["x"]) == len(tops)
     assert parse_spacing("3 x 2") == (3.0, 2.0)
     with pytest.raises(ValueError, match="-spacing"):
@@ -244,8 +248,11 @@ def test_plantation_mode_writes_gaps_and_stocking(tmp_path, stand):
     assert main(["trees", str(f), str(out), "-spacing", "3x2", "-q"]) == 0
     layers = {n for n, _ in pyogrio.list_layers(out)}
     assert {"tree_tops", "crowns", "gaps", "summary"} <= layers
-    gaps = gpd.read_file(out, layer="gaps")
+    empty = gpd.read_file(out, layer="gaps")
     summ = pyogrio.read_dataframe(out, layer="summary")
+    assert set(empty.status) <= {"missing", "suppressed"}
+    gaps = empty[empty.status == "missing"]
+    assert len(empty) - len(gaps) == int(summ.suppressed_trees[0])
     assert gaps.crs.to_epsg() == 31984 and len(gaps) == int(summ.missing_trees[0])
     assert summ.spacing[0] == "3x2" and summ.planting_positions[0] == 600
     # the stand lost 8 of its 600 positions: each is found as a gap
@@ -253,7 +260,7 @@ def test_plantation_mode_writes_gaps_and_stocking(tmp_path, stand):
 
     d, _ = cKDTree(np.c_[gaps.x, gaps.y]).query(np.c_[truth["_missing_x"], truth["_missing_y"]])
     assert (d < 0.5).all()
-    assert 96.0 <= summ.stocking_pct[0] <= 100 * 592 / 600 + 1e-9
+    assert abs(summ.stocking_pct[0] - 100 * 592 / 600) <= 1.0
 
 
 def test_separate_tops_is_greedy_highest_first():
@@ -437,11 +444,14 @@ def test_plantation_mode_looks_again_at_empty_positions(tmp_path, monkeypatch):
     r0, e0 = run("without")
     assert r["gap_trees"] >= 10 and r0["gap_trees"] == 0
     assert e["recall"] > e0["recall"] + 0.02 and e["f_score"] > e0["f_score"] + 0.005
-    assert abs(r["stocking_pct"] - true_pct) < abs(r0["stocking_pct"] - true_pct) - 2.0
+    # 4 pts/m²: within the 2 points issue 23 asks (the empty positions where a tree stands
+    # without a top of its own count as stocked, with or without the second look)
+    assert abs(r["stocking_pct"] - true_pct) <= 2.0 and abs(r0["stocking_pct"] - true_pct) <= 2.0
     summ = pyogrio.read_dataframe(tmp_path / "with.gpkg", layer="summary")
     assert int(summ.gap_trees[0]) == r["gap_trees"] >= 10
-    assert int(summ.trees[0]) == r["trees"] and len(gpd.read_file(tmp_path / "with.gpkg",
-                                                                   layer="gaps")) == int(summ.missing_trees[0])
+    gaps = gpd.read_file(tmp_path / "with.gpkg", layer="gaps")
+    assert int(summ.trees[0]) == r["trees"] and (gaps.status == "missing").sum() == int(
+        summ.missing_trees[0])
 
 
 def test_plantation_mode_warns_that_sparse_data_under_report_stocking(tmp_path, capsys):

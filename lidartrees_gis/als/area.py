@@ -184,10 +184,6 @@ def window_measures(s, params=None) -> dict | None:
     if canopy.size:
         out["p95"] = float(np.percentile(canopy, 95))
     cs = params.crown_scale
-    if cs is None and params.spacing is not None:
-        from .trees import SPACING_FACTOR
-
-        cs = SPACING_FACTOR * min(params.spacing)
     if cs is None:
         cs = out["crown_scale"] = crown_scale(chm, res, min_height=params.min_height)
     if params.method == "rg":
@@ -341,6 +337,7 @@ def plan_area(area, surface: SurfaceOptions, tiling: TilingOptions, *, runner, p
         if keep and len(windows) == 1 and math.isinf(ts):
             # the area is one window and one tile: its surfaces serve both, computed once here
             kept = box_surfaces(area, windows[0], res, surface,
+                                keep_points=params is not None and params.spacing is not None,
                                 progress=SubProgress(prog, 0.3, 1.0))
             measures = [window_measures(kept, params)]
         else:
@@ -396,12 +393,8 @@ def _crown_scale_and_height(params, measures, res):
     """The crown scale (and where it came from) and the dominant height of the area."""
     if params is None:
         return None, "", None
-    from .trees import SPACING_FACTOR
-
     if params.crown_scale is not None:
         cs, source = float(params.crown_scale), "given"
-    elif params.spacing is not None:
-        cs, source = SPACING_FACTOR * min(params.spacing), "spacing"
     else:
         cs = _median([m["crown_scale"] for m in measures], None)
         cs, source = (cs, "measured") if cs is not None else (2.0 * res,

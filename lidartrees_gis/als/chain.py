@@ -277,7 +277,8 @@ def _stands_result(stands, rows, tally, stand_csv) -> dict:
                 f"{_round(r['dominant_height'], 1)} m, {r['area_ha']:.2f} ha")
         if "stocking_pct" in r:
             text += (f", stocking {_round(r['stocking_pct'], 1)} % ({r['missing_trees']} "
-                     f"missing of {r['planting_positions']}, rows at {r['row_azimuth']:.1f}°)")
+                     f"missing, {r['suppressed_trees']} suppressed of "
+                     f"{r['planting_positions']} positions, rows at {r['row_azimuth']:.1f}°)")
         out[f"stand {r['stand_id']}"] = text
     return out
 
@@ -358,7 +359,7 @@ def _trees_result(output, area, plan, summary, row, p, layers, surface) -> dict:
            "tree_ids": summary.tree_ids}
     if p.spacing is not None:
         out.update({k: row[k] for k in ("spacing", "row_azimuth", "planting_positions",
-                                         "missing_trees", "numbering")})
+                                         "suppressed_trees", "missing_trees", "numbering")})
         out["stocking_pct"] = _round(row["stocking_pct"], 2)
     if output is None:
         out["layers"] = layers.frames()

@@ -40,7 +40,7 @@ class Tally:
 class TreesSummary(Tally):
     """The stand summary of an area, summed tile by tile."""
 
-    STOCK = ("expected", "stocked", "missing", "extra", "planted_area_ha")
+    STOCK = ("expected", "stocked", "suppressed", "missing", "extra", "planted_area_ha")
 
     def __init__(self):
         super().__init__()
@@ -67,7 +67,7 @@ class TreesSummary(Tally):
         st = r["stocking"]
         if st is not None:
             for k in self.STOCK:
-                self.stock[k] += st[k]
+                self.stock[k] += st.get(k, 0)
             self.azimuths.append((st["azimuth"], st["expected"]))
             if st.get("numbering") and st["expected"] >= self.numbered:  # the largest tile's
                 self.numbering, self.numbered = st["numbering"], st["expected"]
@@ -161,6 +161,10 @@ def gap_arrays(st: dict, res: float, tile, stand_ids=None) -> dict:
            "row_number": np.asarray(st["gaps_row"], np.int64),
            "plant_number": np.asarray(st["gaps_plant"], np.int64), "x": gx, "y": gy,
            "tile": np.full(gx.size, "_".join(map(str, tile)), dtype=object)}
+    # what stands at the position: nothing (missing, a gap) or a suppressed tree under or
+    # beside its neighbours' crowns (no top of its own)
+    out["status"] = np.asarray(["missing", "suppressed"], dtype=object)[
+        np.asarray(st.get("gaps_status", np.zeros(gx.size, np.int8)), np.int64)]
     if stand_ids is not None:
         out["stand_id"] = stand_names(st.get("gaps_zone", np.full(gx.size, -1)), stand_ids)
     return out
@@ -180,7 +184,7 @@ class TreeLayers:
         if len(r["tree_id"]):
             self.parts.append(tree_arrays(r))
         st = r["stocking"]
-        if st is not None and st["missing"]:
+        if st is not None and len(st["gaps_x"]):
             self.gaps.append(gap_arrays(st, r["res"], r["tile"], self.stand_ids))
 
     def finish(self, summary: dict, plantation: bool, stands=None) -> None:
@@ -224,7 +228,8 @@ class TreeLayers:
         if self.plantation:
             g = {k: np.concatenate([p[k] for p in self.gaps]) for k in self.gaps[0]} \
                 if self.gaps else {k: np.empty(0) for k in ("gap_id", "row_number",
-                                                            "plant_number", "x", "y", "tile")
+                                                            "plant_number", "x", "y", "tile",
+                                                            "status")
                                    + (("stand_id",) if self.stand_ids is not None else ())}
             out[self.names["gaps"]] = gpd.GeoDataFrame(g, crs=crs,
                                                        geometry=shapely.points(g["x"], g["y"]))
@@ -293,7 +298,7 @@ class GpkgTreeLayers(TreeLayers):
         if flush or self.pending_rows >= BATCH_TREES:
             self.flush()
         st = r["stocking"]
-        if st is not None and st["missing"]:
+        if st is not None and len(st["gaps_x"]):
             import shapely
 
             g = gap_arrays(st, r["res"], r["tile"], self.stand_ids)
@@ -388,8 +393,9 @@ class QuickLook:
             self.y.append(np.asarray(r["y"]))
         st = r.get("stocking")
         if st is not None and len(st["gaps_x"]):
-            self.gx.append(np.asarray(st["gaps_x"], float))
-            self.gy.append(np.asarray(st["gaps_y"], float))
+            miss = np.asarray(st.get("gaps_status", np.zeros(len(st["gaps_x"]))), int) == 0
+            self.gx.append(np.asarray(st["gaps_x"], float)[miss])
+            self.gy.append(np.asarray(st["gaps_y"], float)[miss])
 
     def _paste(self, a, left, top) -> None:
         s, k = self.fine, self.k

@@ -262,7 +262,7 @@ def stand_cells(zone_core, chm_core, min_height: float) -> dict:
 
 
 #: the plantation counts summed per stand (as :class:`lidartrees_gis.als.sinks.TreesSummary`)
-STOCK = ("expected", "stocked", "missing", "extra", "planted_area_ha")
+STOCK = ("expected", "stocked", "suppressed", "missing", "extra", "planted_area_ha")
 
 
 class StandsTally:
@@ -295,7 +295,7 @@ class StandsTally:
             if k < 0:
                 continue
             for f in STOCK:
-                self.stock[f][k] += st[f]
+                self.stock[f][k] += st.get(f, 0)
             if st["expected"]:
                 self.azimuths[k].append((st["azimuth"], st["expected"]))
 
@@ -334,8 +334,8 @@ class StandsTally:
             if spacing is not None:
                 az = axial_mean(*zip(*self.azimuths[k])) if self.azimuths[k] else np.nan
                 row.update(stocking_fields(spacing, az, {f: self.stock[f][k] for f in STOCK}))
-                for f in ("planting_positions", "stocked_positions", "missing_trees",
-                          "extra_tops"):
+                for f in ("planting_positions", "stocked_positions", "suppressed_trees",
+                          "missing_trees", "extra_tops"):
                     row[f] = int(row[f])
             rows.append(row)
         return rows
@@ -369,9 +369,12 @@ FIELD_DOCS = {
     "row_azimuth": "row direction of the stand's own planting lattice (degrees from north)",
     "planting_positions": "positions of the stand's own planting lattice in its planted area",
     "stocked_positions": "planting positions with a tree top",
+    "suppressed_trees": "planting positions without a top where a suppressed tree stands "
+                        "(returns at 30 % or more of the dominant height at the position)",
     "missing_trees": "planting positions without a tree top (the gaps layer's points)",
     "extra_tops": "tops on a position another top already takes (forks, weeds)",
-    "stocking_pct": "stocked planting positions / planting positions of the stand's lattice",
+    "stocking_pct": "planting positions with a tree (a top, or a suppressed tree) / planting "
+                    "positions of the stand's lattice",
     "planted_per_ha": "trees planted per hectare at this spacing (10,000 / (R x C))",
     "planted_area_ha": "the stand's planted area (canopy closed over gaps, ha)",
 }

@@ -276,79 +276,6 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
             "numbering": numbering}
 
 
-#: a stand with fewer tops than this in a tile (with its buffer) takes the lattice fitted to all
-#: the tile's tops instead of its own (a corner of a stand)
-STAND_FIT_MIN_TOPS = 30
-
-
-def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: float = 2.0,
-                      grid: PlantingGrid | None = None, within=None) -> dict:
-    """:func:`stocking` with a planting lattice fitted per stand.
-
-    ``zone``: the stand index of every cell of ``spec`` (-1 outside every stand; see
-    :func:`lidartrees_gis.als.stands.zones`), or None for one stand. Each stand's positions are
-    those of the lattice fitted to the tops inside it (:data:`STAND_FIT_MIN_TOPS`), in its part
-    of the planted area; the cells outside every stand are one more zone, so the sums over the
-    zones are the whole tile's. Returns :func:`stocking`'s dict (counts summed, gaps and the
-    tops' row and plant numbers of every zone) with ``gaps_zone`` and ``zones`` (per zone
-    index: ``expected, stocked, missing, extra, planted_area_ha, azimuth``); ``grid`` is the
-    lattice of the zone with the most positions.
-    """
-    R, C = spacing
-    tx, ty = np.asarray(top_x, float), np.asarray(top_y, float)
-    if zone is None or not (np.asarray(zone) >= 0).any():
-        st = stocking(tx, ty, chm, spec, spacing, min_height=min_height, grid=grid,
-                      within=within)
-        st["gaps_zone"] = np.full(st["gaps_x"].size, -1, np.int64)
-        st["zones"] = {-1: {**{k: st[k] for k in ("expected", "stocked", "missing", "extra",
-                                                  "planted_area_ha")},
-                            "azimuth": st["grid"].azimuth}}
-        return st
-    zone = np.asarray(zone)
-    planted = stand_mask(chm, spec.res, R, C, min_height=min_height)
-    r, c = spec.cell_index(tx, ty)
-    inside = (r >= 0) & (r < spec.height) & (c >= 0) & (c < spec.width)
-    top_zone = np.full(tx.size, -1, np.int64)
-    top_zone[inside] = zone[r[inside], c[inside]]
-    whole = [grid]
-
-    def tile_grid():
-        if whole[0] is None:
-            whole[0] = fit_planting_grid(tx, ty, R, C)
-        return whole[0]
-
-    parts = {}
-    for k in np.unique(zone[planted]).tolist():
-        own = top_zone == k
-        g = fit_planting_grid(tx[own], ty[own], R, C) if own.sum() >= STAND_FIT_MIN_TOPS \
-            else tile_grid()
-        parts[k] = stocking(tx, ty, chm, spec, spacing, min_height=min_height, grid=g,
-                            within=within, planted=planted & (zone == k), own=own)
-    if not parts:  # nothing planted: the whole tile's empty answer
-        return stocking_by_stand(tx, ty, chm, spec, spacing, None, min_height=min_height,
-                                 grid=grid, within=within)
-    main = max(parts.values(), key=lambda p: p["expected"])
-    out = {k: sum(p[k] for p in parts.values()) for k in ("expected", "stocked", "missing",
-                                                           "extra", "planted_area_ha")}
-    cat = {k: np.concatenate([p[k] for p in parts.values()])
-           for k in ("gaps_x", "gaps_y", "gaps_i", "gaps_j", "gaps_row", "gaps_plant")}
-    tops_row = np.zeros(tx.size, np.int64)
-    tops_plant = np.zeros(tx.size, np.int64)
-    for p in parts.values():
-        took = p["tops_row"] > 0
-        tops_row[took], tops_plant[took] = p["tops_row"][took], p["tops_plant"][took]
-    e = out["expected"]
-    out.update(cat, grid=main["grid"], numbering=main["numbering"], tops_row=tops_row,
-               tops_plant=tops_plant, planted_per_ha=1e4 / (R * C),
-               stocking_pct=100.0 * out["stocked"] / e if e else float("nan"),
-               gaps_zone=np.concatenate([np.full(p["gaps_x"].size, k, np.int64)
-                                         for k, p in parts.items()]),
-               zones={k: {**{f: p[f] for f in ("expected", "stocked", "missing", "extra",
-                                               "planted_area_ha")},
-                          "azimuth": p["grid"].azimuth} for k, p in parts.items()})
-    return out
-
-
 #: plantation mode's second look at an empty planting position (:func:`gap_tops`): the apex may
 #: lie this share of the smaller spacing from the position ...
 GAP_REACH = 0.3
@@ -492,10 +419,11 @@ def stocking_fields(spacing, azimuth: float, st: dict) -> dict:
     :func:`lidartrees_gis.als.stocking.stocking` (``expected, stocked, missing, extra,
     planted_area_ha``; summed over the tiles)."""
     e = st["expected"]
+    sup = st.get("suppressed", 0)
     return {"spacing": f"{spacing[0]:g}x{spacing[1]:g}", "row_azimuth": azimuth,
             "planting_positions": e, "stocked_positions": st["stocked"],
-            "missing_trees": st["missing"], "extra_tops": st["extra"],
-            "stocking_pct": 100.0 * st["stocked"] / e if e else float("nan"),
+            "suppressed_trees": sup, "missing_trees": st["missing"], "extra_tops": st["extra"],
+            "stocking_pct": 100.0 * (st["stocked"] + sup) / e if e else float("nan"),
             "planted_per_ha": 1e4 / (spacing[0] * spacing[1]),
             "planted_area_ha": st["planted_area_ha"]}
 

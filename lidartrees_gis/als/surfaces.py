@@ -181,7 +181,8 @@ class _Accumulators:
     """What one pass over the points keeps: the highest (and lowest) point per cell, the lowest
     ground point per cell, the lowest point per ``lowest:R`` cell and the first returns."""
 
-    def __init__(self, spec: GridSpec, method: DtmMethod, keep_first: bool):
+    def __init__(self, spec: GridSpec, method: DtmMethod, keep_first: bool,
+                 keep_all: bool = False):
         self.acc = GridAccumulator(spec, ("max", "min") if method.kind == "min" else ("max",))
         # the lowest ground (class 2) return of each cell, at its own position (a TIN through
         # cell centres would be ambiguous on the regular lattice)
@@ -190,6 +191,7 @@ class _Accumulators:
                                                          crs=spec.crs))
                        if method.kind in ("lowest", "auto") else None)
         self.first = [] if keep_first else None
+        self.all = [] if keep_all else None
         self.n = 0
 
     def add(self, chunk) -> None:
@@ -201,6 +203,8 @@ class _Accumulators:
                 self.ground.add(chunk.x[g], chunk.y[g], chunk.z[g])
         if self.lowest is not None:
             self.lowest.add(chunk.x, chunk.y, chunk.z)
+        if self.all is not None:
+            self.all.append((chunk.x, chunk.y, chunk.z.astype(np.float32)))
         if self.first is not None:
             rn = chunk.return_number
             sel = slice(None) if rn is None else (rn <= 1)
@@ -311,7 +315,8 @@ def _canopy(acc: _Accumulators, opts: SurfaceOptions, spec: GridSpec, dtm, dsm_r
 
 
 def compute_surfaces(src, res: float, opts: SurfaceOptions | None = None, *,
-                     stats: SurfaceStats | None = None, progress=None) -> dict:
+                     stats: SurfaceStats | None = None, keep_points: bool = False,
+                     progress=None) -> dict:
     """DSM, DTM and CHM of a point source on one aligned grid.
 
     Parameters
@@ -332,14 +337,15 @@ def compute_surfaces(src, res: float, opts: SurfaceOptions | None = None, *,
     from), ``returns`` (the highest return above ground per cell), ``spec``, ``res``,
     ``dtm_method``, ``chm_method``, ``points``, ``dropped`` (points per dropped class),
     ``outlier_cells``, ``outlier_points``, ``stats`` (the :class:`SurfaceStats` used) and
-    ``density`` (points per m² over the data footprint).
+    ``density`` (points per m² over the data footprint); with ``keep_points``, ``points``:
+    every point's ``(x, y, height above the DTM)`` (plantation mode looks under the canopy).
     """
     opts = opts or SurfaceOptions()
     stats = stats or SurfaceStats()
     prog = as_progress(progress)
     method = opts.dtm_method
     spec = grid_spec_for(src, res, SubProgress(prog, 0.0, 0.3))
-    acc = _Accumulators(spec, method, keep_first=opts.chm != "max")
+    acc = _Accumulators(spec, method, keep_first=opts.chm != "max", keep_all=keep_points)
     for chunk in src.chunks(SubProgress(prog, 0.3, 0.8)):
         acc.add(chunk)
     if acc.n == 0:
@@ -379,7 +385,12 @@ def compute_surfaces(src, res: float, opts: SurfaceOptions | None = None, *,
     used = SurfaceStats(max_edge, reach, acc.lowest.median() if acc.lowest is not None else None,
                         kind if method.kind == "auto" else None)
     prog.update(0.95, "canopy height")
-    return {"dsm": dsm, "dtm": dtm, "chm": chm, "heights": heights, "returns": returns,
+    kept = None
+    if acc.all is not None:
+        x, y, z = (np.concatenate([k[i] for k in acc.all]) for i in range(3))
+        acc.all = None
+        kept = (x, y, (z - bilinear(dtm, spec, x, y)).astype(np.float32))
+    return {"points_above_ground": kept, "dsm": dsm, "dtm": dtm, "chm": chm, "heights": heights, "returns": returns,
             "spec": spec, "res": res, "dtm_method": method.label(kind), "chm_method": opts.chm,
             "points": acc.n, "outside": acc.acc.outside, "dropped": dict(src.dropped),
             "density": acc.n / max(float(footprint.sum()) * spec.cell_area, 1e-9),
@@ -388,7 +399,7 @@ def compute_surfaces(src, res: float, opts: SurfaceOptions | None = None, *,
 
 
 def box_surfaces(area, box, res: float, opts: SurfaceOptions, *, stats=None,
-                 progress=None) -> dict | None:
+                 keep_points: bool = False, progress=None) -> dict | None:
     """The surfaces of the part of ``area`` inside ``box``: a
     :class:`~lidartrees_gis.catalog.catalog.Catalog` (points, :func:`compute_surfaces`) or a
     :class:`~lidartrees_gis.catalog.raster.RasterArea` (a CHM GeoTIFF, its window). None when
@@ -402,7 +413,8 @@ def box_surfaces(area, box, res: float, opts: SurfaceOptions, *, stats=None,
     if not src.files:
         return None
     try:
-        return compute_surfaces(src, res, opts, stats=stats, progress=progress)
+        return compute_surfaces(src, res, opts, stats=stats, keep_points=keep_points,
+                                progress=progress)
     except InputError as exc:
         if "no points" in str(exc):
             return None

@@ -53,7 +53,7 @@ def core_window(spec: GridSpec, core) -> tuple:
 
 
 def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=None, *,
-                         returns=None, within=None, zone=None) -> dict:
+                         returns=None, within=None, zone=None, points=None) -> dict:
     """:func:`lidartrees_gis.als.trees.detect_trees` on a CHM, plus the stocking of the fitted
     planting grid in plantation mode (``params.spacing``).
 
@@ -67,9 +67,12 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
     The cells of the added tops are ``result["gap_tops"]`` (rows, cols). ``within``: the box
     (a tile's core) whose positions the stocking counts; ``zone``: the stand of each cell
     (:func:`lidartrees_gis.als.stands.zones`), each stand fitted its own lattice
-    (:func:`lidartrees_gis.als.stocking.stocking_by_stand`).
+    (:func:`lidartrees_gis.als.positions.stocking_by_stand`); ``points``: every return's
+    ``(x, y, height above ground)``, to tell the empty positions holding a suppressed tree
+    from the missing ones (:func:`lidartrees_gis.als.positions.classify_gaps`).
     """
-    from .stocking import detect_planting, gap_tops, stocking_by_stand
+    from .positions import classify_gaps, stocking_by_stand
+    from .stocking import detect_planting, gap_tops
 
     result = detect_trees(arr, spec, params, heights=heights)
     check_cancel(progress)
@@ -104,7 +107,11 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
                 st = stocking_by_stand(t["x"], t["y"], arr, spec, spacing, zone,
                                        min_height=params.min_height, within=within)
     if given:  # the stocking report (gaps layer) is for plantation mode only
-        result["stocking"] = st
+        hd = params.dominant_height
+        if hd is None:
+            canopy = arr[np.isfinite(arr) & (arr >= params.min_height)]
+            hd = float(np.percentile(canopy, 95)) if canopy.size else params.min_height
+        result["stocking"] = classify_gaps(st, points, spacing, hd, params.min_height)
     result["gap_trees"] = added
     return result
 
@@ -131,8 +138,9 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
     from .stands import locate, stand_cells, zones
 
     prog = as_progress(progress)
-    s = surfaces if surfaces is not None else box_surfaces(area, tile.box, plan.res, surface,
-                                                           stats=plan.stats, progress=prog)
+    s = surfaces if surfaces is not None else box_surfaces(
+        area, tile.box, plan.res, surface, stats=plan.stats,
+        keep_points=params.spacing is not None, progress=prog)
     if s is None:
         return _empty_trees(tile, plan.res)
     spec = s["spec"]
@@ -143,6 +151,7 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
     if params.looks_at_planting:
         r = detect_with_stocking(s["chm"], spec, params, heights=s["heights"],
                                  returns=s["returns"], progress=prog, zone=zone,
+                                 points=s.get("points_above_ground"),
                                  within=None if whole or params.spacing is None else tile.core)
     else:
         r = detect_trees(s["chm"], spec, params, heights=s["heights"])
@@ -164,7 +173,7 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
     out["stocking"] = None if st is None else {
         **{k: st[k] for k in ("expected", "stocked", "missing", "extra", "planted_area_ha",
                               "gaps_x", "gaps_y", "gaps_row", "gaps_plant", "gaps_zone",
-                              "numbering")},
+                              "numbering", "suppressed", "gaps_status")},
         "azimuth": st["grid"].azimuth}
     out["stand_stocking"] = None if st is None else st["zones"]
     out["wkb"] = shapely.to_wkb(np.asarray(polys, dtype=object)) if idx.size else []

@@ -19,8 +19,6 @@ METHODS = ("rg", "treex", "watershed", "mcws")
 TOPS = ("auto", "aw", "lm", "strict", "treex", "vwf")
 #: -smooth auto: Gaussian sigma in crown scales (see :func:`resolve_auto`)
 SIGMA_FACTOR = 0.1
-#: -spacing RxC: crown scale = SPACING_FACTOR x the smaller spacing
-SPACING_FACTOR = 0.3
 #: adaptive window: default smallest distance between two tops, in CHM cells (1.3 m at 4 pts/m²)
 SEPARATION_CELLS = 2.6
 #: ... but at most this many crown scales (in-row trees of a 3 x 2 m stand are about 2.9 apart)
@@ -80,11 +78,12 @@ class TreeParams:
     connectivity : {4, 8}
         TreeX growth neighbourhood.
     spacing : str or (float, float), optional
-        Planting spacing ``RxC`` (m), e.g. ``3x2``: sets the crown scale (``SPACING_FACTOR`` x
-        the smaller spacing) and turns on the stocking report.
+        Planting spacing ``RxC`` (m), e.g. ``3x2``: plantation mode, the planting lattice, the
+        stocking report and the planted trees' separation; the crown scale is still measured
+        on the CHM (fixing it from the spacing gave false tops on the flanks of wide crowns).
     crown_scale : float, optional
         Crown scale (m) for ``auto``; default measured on the CHM
-        (:func:`lidartrees_gis.als.chm.crown_scale`) or from ``spacing``.
+        (:func:`lidartrees_gis.als.chm.crown_scale`).
     window_factor : float
         Adaptive window radius for a tree of the dominant height, in crown scales.
     dominant_height : float, optional
@@ -197,8 +196,8 @@ class TreeParams:
 def resolve_auto(chm, res: float, p: TreeParams) -> dict:
     """What ``-smooth auto`` and the adaptive window use on this CHM.
 
-    * crown scale L (m): ``p.crown_scale``, else ``SPACING_FACTOR`` x the smaller planting
-      spacing, else measured on the CHM (:func:`lidartrees_gis.als.chm.crown_scale`);
+    * crown scale L (m): ``p.crown_scale``, else measured on the CHM (also in plantation
+      mode) (:func:`lidartrees_gis.als.chm.crown_scale`);
     * dominant height: 95th percentile of the canopy heights >= ``min_height``;
     * Gaussian sigma = ``SIGMA_FACTOR`` x L, applied when at least a third of a cell.
     """
@@ -208,8 +207,6 @@ def resolve_auto(chm, res: float, p: TreeParams) -> dict:
     canopy = a[np.isfinite(a) & (a >= p.min_height)]
     if p.crown_scale is not None:
         L, src = float(p.crown_scale), "given"
-    elif p.spacing is not None:
-        L, src = SPACING_FACTOR * min(p.spacing), "spacing"
     else:
         L, src = crown_scale(a, res, min_height=p.min_height), "measured"
         if not np.isfinite(L):

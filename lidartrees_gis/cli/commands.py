@@ -201,7 +201,8 @@ COMMANDS = {
          Param("min_height", "float", "Minimum tree height", flag="-min_height", default=2.0,
                unit="m"),
          Param("spacing", "str", "Plantation mode: planting spacing ROWSxTREES in m, e.g. 3x2; "
-               "sets the crown scale and adds missing trees (gaps layer) and stocking to the "
+               "each empty planting position classified missing or suppressed (gaps layer), and "
+               "stocking, added to the "
                "output", flag="-spacing"),
          Param("tops", "choice", "Tree tops: aw = adaptive window (crown scale x height); lm = "
                "8-neighbour maxima, one per plateau (Castro 2006); strict = strictly higher than "
@@ -211,7 +212,7 @@ COMMANDS = {
                flag="-tops", choices=("auto", "aw", "lm", "strict", "treex", "vwf"),
                default="auto", advanced=True),
          Param("crown_scale", "float", "Crown scale for -smooth auto and -tops aw (default: "
-               "measured on the CHM, or 0.3 x the smaller -spacing)", flag="-crown_scale",
+               "measured on the CHM)", flag="-crown_scale",
                advanced=True, unit="m"),
          Param("window_factor", "float", "Adaptive window radius for a tree of the dominant "
                "height, in crown scales", flag="-window_factor", default=0.9, advanced=True),

@@ -283,7 +283,9 @@ def test_plantation_mode_loads_gaps_and_evaluate_runs(qgis_app, tmp_path, stand)
     assert res["TREES"] > 560
     gaps = QgsProject.instance().mapLayersByName("gaps")
     assert gaps and gaps[0].featureCount() >= 8 and gaps[0].crs().authid() == "EPSG:29194"
-    assert gaps[0].renderer().type() == "singleSymbol"
+    rend = gaps[0].renderer()
+    assert rend.type() == "categorizedSymbol" and rend.classAttribute() == "status"
+    assert {c.value() for c in rend.categories()} == {"missing", "suppressed"}
     ref = tmp_path / "truth.csv"
     write_truth_csv(ref, truth)
     rep = tmp_path / "report.json"
