@@ -118,13 +118,16 @@ def two_stand_run(tmp: Path, density: float = 12.0) -> dict:
                      crs=CRS).to_file(tmp / "stands.gpkg")
     out = {}
     for name, extra in (("one tile", {}), ("tiled", {"tile_size": 60, "workers": 1})):
-        r = trees(las, tmp / "two.gpkg", params=TreeParams(spacing="3x2"),
+        r = trees(las, tmp / "two.gpkg", params=TreeParams(spacing="auto"),
                   stands=str(tmp / "stands.gpkg"), **extra)
         st = pyogrio.read_dataframe(tmp / "two.gpkg", layer="stands", read_geometry=False)
         out[name] = {row["stand_id"]: {k: (round(float(row[k]), 2) if isinstance(row[k], float)
                                            else int(row[k]))
                                        for k in ("trees", "planting_positions", "missing_trees",
-                                                 "stocking_pct", "row_azimuth")}
+                                                 "suppressed_trees", "stocking_pct",
+                                                 "row_azimuth")}
+        for _, row in st.iterrows():
+            out[name][row["stand_id"]]["spacing"] = row["spacing"]
                      for _, row in st.iterrows()}
         del r
     for sid, t in zip(("A", "B"), truths):

@@ -195,3 +195,42 @@ def test_bad_stand_files_are_named(two_stands, tmp_path, capsys):
                  str(tmp_path / "s.csv"), "-q"]) == 1
     assert "-stand_csv: needs -stands" in capsys.readouterr().err
     assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_spacing_auto_finds_each_stands_spacing_and_rows(two_stands):
+    d = two_stands["dir"]
+    out = d / "auto.gpkg"
+    _run(["trees", str(two_stands["las"]), str(out), "-stands", str(two_stands["stands"]),
+          "-spacing", "auto"])
+    stands = gpd.read_file(out, layer="stands").set_index("stand_id")
+    assert list(stands["spacing"]) == ["3x2", "3x2"]
+    az = stands["row_azimuth"]
+    assert min(az["T-01"], 180 - az["T-01"]) < 1.0 and abs(az["T-02"] - (180 - TURN)) < 1.0
+    for sid, s in stands.iterrows():
+        t = two_stands["truth"][sid]
+        true_pct = 100 * (s["planting_positions"] - t["missing"]) / s["planting_positions"]
+        assert abs(s["stocking_pct"] - true_pct) <= (1.0 if sid == "T-01" else 1.5)
+
+
+@pytest.mark.parametrize("rows,trees,azimuth", [(3.5, 2.5, 115.0), (3.0, 2.0, 20.0),
+                                                (3.0, 3.0, 67.0)])
+def test_planting_lattice_found_from_tops_on_a_chm_grid(rows, trees, azimuth):
+    """Tops sit on CHM cells (0.3 m): the directions between neighbours 2.5 m apart come in
+    7° steps, and the histogram's peak was 5.5° off the rows (a 3.5 x 2.5 m stand at 115° was
+    read as 3.61 x 2.61 m and no lattice was found)."""
+    from lidartrees_gis.als.stocking import detect_planting
+
+    rng = np.random.default_rng(5)
+    a = np.radians(azimuth)
+    u, v = np.array([np.sin(a), np.cos(a)]), np.array([np.cos(a), -np.sin(a)])
+    i, j = np.meshgrid(np.arange(-25, 26), np.arange(-20, 21))
+    x = i.ravel() * trees * u[0] + j.ravel() * rows * v[0] + rng.normal(0, 0.12, i.size)
+    y = i.ravel() * trees * u[1] + j.ravel() * rows * v[1] + rng.normal(0, 0.12, i.size)
+    keep = (np.abs(x) < 45) & (np.abs(y) < 45) & (rng.random(x.size) > 0.05)
+    x, y = (np.floor(x[keep] / 0.3) + 0.5) * 0.3, (np.floor(y[keep] / 0.3) + 0.5) * 0.3
+    g = detect_planting(x + 500000.0, y + 7500000.0)
+    assert g is not None and g.fit > 0.5
+    got = sorted([g.row_spacing, g.tree_spacing])
+    assert np.allclose(got, sorted([rows, trees]), rtol=0.02)
+    d = abs((g.azimuth - azimuth + 90) % 180 - 90)
+    assert d < 0.5 or (rows == trees and abs(d - 90) < 0.5)

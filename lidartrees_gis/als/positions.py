@@ -5,12 +5,24 @@ from __future__ import annotations
 
 import numpy as np
 
-from .stocking import fit_planting_grid, stand_mask, stocking
+from .stocking import PlantingGrid, fit_planting_grid, stand_mask, stocking
 
 
 #: a stand with fewer tops than this in a tile (with its buffer) takes the lattice fitted to all
 #: the tile's tops instead of its own (a corner of a stand)
 STAND_FIT_MIN_TOPS = 30
+
+
+def _empty(n_tops: int) -> dict:
+    """:func:`stocking_by_stand`'s answer when no lattice was found (``-spacing auto``)."""
+    e = np.empty(0)
+    z = np.zeros(n_tops, np.int64)
+    return {"grid": None, "spacing": None, "expected": 0, "stocked": 0, "missing": 0, "extra": 0,
+            "planted_area_ha": 0.0, "stocking_pct": float("nan"), "planted_per_ha": float("nan"),
+            "gaps_x": e, "gaps_y": e, "gaps_i": e.astype(np.int64), "gaps_j": e.astype(np.int64),
+            "gaps_row": e.astype(np.int64), "gaps_plant": e.astype(np.int64),
+            "gaps_zone": e.astype(np.int64), "tops_row": z, "tops_plant": z.copy(),
+            "numbering": "", "zones": {}}
 
 
 def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: float = 2.0,
@@ -21,44 +33,56 @@ def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: flo
     :func:`lidartrees_gis.als.stands.zones`), or None for one stand. Each stand's positions are
     those of the lattice fitted to the tops inside it (:data:`STAND_FIT_MIN_TOPS`), in its part
     of the planted area; the cells outside every stand are one more zone, so the sums over the
-    zones are the whole tile's. Returns :func:`stocking`'s dict (counts summed, gaps and the
-    tops' row and plant numbers of every zone) with ``gaps_zone`` and ``zones`` (per zone
-    index: ``expected, stocked, missing, extra, planted_area_ha, azimuth``); ``grid`` is the
-    lattice of the zone with the most positions.
+    zones are the whole tile's. ``spacing``: ``(R, C)``, or ``"auto"``: each stand's spacing
+    found under its tops too (:func:`lidartrees_gis.als.stocking.detect_planting`; a stand
+    where none is found has no positions). Returns :func:`stocking`'s dict (counts summed, gaps
+    and the tops' row and plant numbers of every zone) with ``gaps_zone``, ``spacing`` and
+    ``zones`` (per zone index: ``expected, stocked, missing, extra, planted_area_ha, azimuth,
+    spacing``); ``grid`` and ``spacing`` are those of the zone with the most positions.
     """
-    R, C = spacing
+    from .stocking import PLANTING_MIN_TREES, detect_planting
+
     tx, ty = np.asarray(top_x, float), np.asarray(top_y, float)
-    if zone is None or not (np.asarray(zone) >= 0).any():
-        st = stocking(tx, ty, chm, spec, spacing, min_height=min_height, grid=grid,
-                      within=within)
-        st["gaps_zone"] = np.full(st["gaps_x"].size, -1, np.int64)
-        st["zones"] = {-1: {**{k: st[k] for k in ("expected", "stocked", "missing", "extra",
-                                                  "planted_area_ha")},
-                            "azimuth": st["grid"].azimuth}}
-        return st
-    zone = np.asarray(zone)
-    planted = stand_mask(chm, spec.res, R, C, min_height=min_height)
+    auto = isinstance(spacing, str)
+    zoned = zone is not None and bool((np.asarray(zone) >= 0).any())
+    zone = np.asarray(zone) if zoned else np.full(spec.shape, -1, np.int32)
     r, c = spec.cell_index(tx, ty)
     inside = (r >= 0) & (r < spec.height) & (c >= 0) & (c < spec.width)
     top_zone = np.full(tx.size, -1, np.int64)
     top_zone[inside] = zone[r[inside], c[inside]]
-    whole = [grid]
+    cache, masks = {}, {}
 
     def tile_grid():
-        if whole[0] is None:
-            whole[0] = fit_planting_grid(tx, ty, R, C)
-        return whole[0]
+        if "g" not in cache:
+            cache["g"] = grid if grid is not None else (
+                detect_planting(tx, ty) if auto else fit_planting_grid(tx, ty, *spacing))
+        return cache["g"]
 
+    def planted(sp):
+        if sp not in masks:
+            masks[sp] = stand_mask(chm, spec.res, *sp, min_height=min_height)
+        return masks[sp]
+
+    a = np.asarray(chm, float)
     parts = {}
-    for k in np.unique(zone[planted]).tolist():
+    for k in np.unique(zone[np.isfinite(a) & (a >= min_height)]).tolist():
         own = top_zone == k
-        g = fit_planting_grid(tx[own], ty[own], R, C) if own.sum() >= STAND_FIT_MIN_TOPS \
-            else tile_grid()
-        parts[k] = stocking(tx, ty, chm, spec, spacing, min_height=min_height, grid=g,
-                            within=within, planted=planted & (zone == k), own=own)
-    if not parts:  # nothing planted: the whole tile's empty answer
-        return stocking_by_stand(tx, ty, chm, spec, spacing, None, min_height=min_height,
-                                 grid=grid, within=within)
+        if not zoned:
+            g = tile_grid()
+        elif auto:
+            g = detect_planting(tx[own], ty[own]) if own.sum() >= PLANTING_MIN_TREES else None
+            g = g if g is not None else tile_grid()
+        else:
+            g = fit_planting_grid(tx[own], ty[own], *spacing) \
+                if own.sum() >= STAND_FIT_MIN_TOPS else tile_grid()
+        if g is None:
+            continue
+        sp = (g.row_spacing, g.tree_spacing)
+        parts[k] = stocking(tx, ty, a, spec, sp, min_height=min_height, grid=g, within=within,
+                            planted=planted(sp) & (zone == k), own=own if zoned else None)
+        parts[k]["spacing"] = sp
+    if not parts:
+        return _empty(tx.size)
     main = max(parts.values(), key=lambda p: p["expected"])
     out = {k: sum(p[k] for p in parts.values()) for k in ("expected", "stocked", "missing",
                                                            "extra", "planted_area_ha")}
@@ -70,13 +94,14 @@ def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: flo
         took = p["tops_row"] > 0
         tops_row[took], tops_plant[took] = p["tops_row"][took], p["tops_plant"][took]
     e = out["expected"]
-    out.update(cat, grid=main["grid"], numbering=main["numbering"], tops_row=tops_row,
-               tops_plant=tops_plant, planted_per_ha=1e4 / (R * C),
+    R, C = main["spacing"]
+    out.update(cat, grid=main["grid"], spacing=main["spacing"], numbering=main["numbering"],
+               tops_row=tops_row, tops_plant=tops_plant, planted_per_ha=1e4 / (R * C),
                stocking_pct=100.0 * out["stocked"] / e if e else float("nan"),
                gaps_zone=np.concatenate([np.full(p["gaps_x"].size, k, np.int64)
                                          for k, p in parts.items()]),
                zones={k: {**{f: p[f] for f in ("expected", "stocked", "missing", "extra",
-                                               "planted_area_ha")},
+                                               "planted_area_ha", "spacing")},
                           "azimuth": p["grid"].azimuth} for k, p in parts.items()})
     return out
 

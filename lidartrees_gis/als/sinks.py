@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import OutputExistsError
 from ..io.styles import GPKG_DATASET_OPTIONS, LAYER_STYLES, embed_styles
 from .metrics import tree_ids
-from .stocking import axial_mean, stocking_fields
+from .stocking import axial_mean, fitted_spacing, stocking_fields
 from .tile import INT_FIELDS, TREE_FIELDS
 
 #: trees written to the GeoPackage together (one write per batch, not two per tile)
@@ -46,7 +46,7 @@ class TreesSummary(Tally):
         super().__init__()
         self.n, self.hsum, self.h2sum, self.dsum = 0, 0.0, 0.0, 0.0
         self.canopy, self.gap_trees, self.small = 0, 0, 0
-        self.lattices, self.azimuths, self.ids = [], [], []
+        self.lattices, self.azimuths, self.ids, self.spacings = [], [], [], []
         self.numbering, self.numbered = "", 0
         self.stock = dict.fromkeys(self.STOCK, 0)
         self.stock["planted_area_ha"] = 0.0
@@ -69,6 +69,8 @@ class TreesSummary(Tally):
             for k in self.STOCK:
                 self.stock[k] += st.get(k, 0)
             self.azimuths.append((st["azimuth"], st["expected"]))
+            if st.get("spacing") is not None:
+                self.spacings.append((tuple(st["spacing"]), st["expected"]))
             if st.get("numbering") and st["expected"] >= self.numbered:  # the largest tile's
                 self.numbering, self.numbered = st["numbering"], st["expected"]
 
@@ -115,8 +117,10 @@ class TreesSummary(Tally):
                "gap_trees": self.gap_trees, "planting_detected": self.planting,
                "planting_tiles": len(self.lattices)}
         if params.spacing is not None:  # plantation mode: the stocking of all tiles
-            az = axial_mean(*zip(*self.azimuths)) if self.azimuths else np.nan
-            row.update(stocking_fields(params.spacing, az, self.stock))
+            ok = [(a, e) for a, e in self.azimuths if e and np.isfinite(a)]
+            az = axial_mean(*zip(*ok)) if ok else np.nan
+            row.update(stocking_fields(fitted_spacing(params.spacing, self.spacings), az,
+                                       self.stock))
             # how row_number and plant_number count (tiled runs: each tile's own lattice)
             row["numbering"] = self.numbering + (" (each tile counts its own)"
                                                  if len(plan.tiles) > 1 else "")

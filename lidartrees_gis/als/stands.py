@@ -278,6 +278,7 @@ class StandsTally:
         self.cells = np.zeros((n, 2), np.int64)
         self.stock = {k: np.zeros(n) for k in STOCK}
         self.azimuths = [[] for _ in range(n)]
+        self.spacings = [[] for _ in range(n)]
         self.outside = 0
 
     def add(self, r: dict) -> None:
@@ -298,12 +299,14 @@ class StandsTally:
                 self.stock[f][k] += st.get(f, 0)
             if st["expected"]:
                 self.azimuths[k].append((st["azimuth"], st["expected"]))
+                if st.get("spacing") is not None:
+                    self.spacings[k].append((tuple(st["spacing"]), st["expected"]))
 
     def rows(self, res: float, spacing=None, classes=None) -> list:
         """One dict per stand: the ``stands`` layer's and ``-stand_csv``'s fields (see
         :data:`FIELD_DOCS`). ``classes``: upper limits of the height classes (m)."""
         from ..report.classes import height_classes
-        from .stocking import axial_mean, stocking_fields
+        from .stocking import axial_mean, fitted_spacing, stocking_fields
 
         hs = [np.concatenate(h) if h else np.empty(0, np.float32) for h in self.heights]
         if classes is None:
@@ -333,7 +336,8 @@ class StandsTally:
                 lo = hi
             if spacing is not None:
                 az = axial_mean(*zip(*self.azimuths[k])) if self.azimuths[k] else np.nan
-                row.update(stocking_fields(spacing, az, {f: self.stock[f][k] for f in STOCK}))
+                row.update(stocking_fields(fitted_spacing(spacing, self.spacings[k]), az,
+                                           {f: self.stock[f][k] for f in STOCK}))
                 for f in ("planting_positions", "stocked_positions", "suppressed_trees",
                           "missing_trees", "extra_tops"):
                     row[f] = int(row[f])

@@ -90,9 +90,10 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
     t = result["table"]
     st = stocking_by_stand(t["x"], t["y"], arr, spec, spacing, zone if given else None,
                            min_height=params.min_height, grid=grid, within=within)
-    if returns is not None and st["missing"]:
+    if returns is not None and st["missing"] and st.get("spacing") is not None:
         rows, cols = gap_tops(st["gaps_x"], st["gaps_y"], returns, result["smoothed"], spec,
-                              spacing, top_x=t["x"], top_y=t["y"], min_height=params.min_height)
+                              st["spacing"], top_x=t["x"], top_y=t["y"],
+                              min_height=params.min_height)
         added = int(rows.size)
         if added:
             check_cancel(progress)
@@ -111,7 +112,7 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
         if hd is None:
             canopy = arr[np.isfinite(arr) & (arr >= params.min_height)]
             hd = float(np.percentile(canopy, 95)) if canopy.size else params.min_height
-        result["stocking"] = classify_gaps(st, points, spacing, hd, params.min_height)
+        result["stocking"] = classify_gaps(st, points, st["spacing"], hd, params.min_height)
     result["gap_trees"] = added
     return result
 
@@ -174,7 +175,8 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
         **{k: st[k] for k in ("expected", "stocked", "missing", "extra", "planted_area_ha",
                               "gaps_x", "gaps_y", "gaps_row", "gaps_plant", "gaps_zone",
                               "numbering", "suppressed", "gaps_status")},
-        "azimuth": st["grid"].azimuth}
+        "azimuth": st["grid"].azimuth if st["grid"] is not None else float("nan"),
+        "spacing": st["spacing"]}
     out["stand_stocking"] = None if st is None else st["zones"]
     out["wkb"] = shapely.to_wkb(np.asarray(polys, dtype=object)) if idx.size else []
     out["top_wkb"] = shapely.to_wkb(shapely.points(out["x"], out["y"])) if idx.size else []

@@ -29,7 +29,10 @@ SEPARATION_PLANTED = 0.6
 
 
 def parse_spacing(value):
-    """``"3x2"`` (row spacing x spacing in the row, m) -> ``(3.0, 2.0)``; None stays None."""
+    """``"3x2"`` (row spacing x spacing in the row, m) -> ``(3.0, 2.0)``; ``"auto"`` (found
+    under the tops, per stand) stays ``"auto"``; None stays None."""
+    if isinstance(value, str) and value.strip().lower() == "auto":
+        return "auto"
     if value is None or value == "" or (isinstance(value, (tuple, list)) and len(value) == 2):
         return None if value in (None, "") else (float(value[0]), float(value[1]))
     import re
@@ -42,7 +45,7 @@ def parse_spacing(value):
                 return (r, c)
     except ValueError:
         pass
-    raise InputError(f"-spacing: expected ROWSxTREES in metres, e.g. 3x2, got {value!r}")
+    raise InputError(f"-spacing: expected ROWSxTREES in metres, e.g. 3x2, or auto, got {value!r}")
 
 
 @dataclass(frozen=True)
@@ -160,7 +163,8 @@ class TreeParams:
 
     def as_dict(self) -> dict:
         d = asdict(self)
-        d["spacing"] = None if self.spacing is None else f"{self.spacing[0]:g}x{self.spacing[1]:g}"
+        d["spacing"] = self.spacing if self.spacing in (None, "auto") else \
+            f"{self.spacing[0]:g}x{self.spacing[1]:g}"
         return d
 
     @property
@@ -245,7 +249,7 @@ def find_tops(chm_s, res, p: TreeParams, auto: dict | None = None, origin=(0, 0)
         sep = p.min_separation
         if sep is None:
             sep = min(SEPARATION_CELLS * res, SEPARATION_CROWNS * auto["crown_scale"])
-            if p.spacing is not None:
+            if isinstance(p.spacing, tuple):
                 sep = max(sep, SEPARATION_PLANTED * min(p.spacing))
         return adaptive_maxima(chm_s, res, crown_scale=auto["crown_scale"],
                                dominant_height=auto["dominant_height"], min_height=p.min_height,

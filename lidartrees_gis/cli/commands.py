@@ -200,7 +200,8 @@ COMMANDS = {
                "square, rhombus", flag="-smooth", default="auto"),
          Param("min_height", "float", "Minimum tree height", flag="-min_height", default=2.0,
                unit="m"),
-         Param("spacing", "str", "Plantation mode: planting spacing ROWSxTREES in m, e.g. 3x2; "
+         Param("spacing", "str", "Plantation mode: planting spacing ROWSxTREES in m, e.g. 3x2, "
+               "or auto (found under the tops, per stand with -stands); "
                "each empty planting position classified missing or suppressed (gaps layer), and "
                "stocking, added to the "
                "output", flag="-spacing"),
