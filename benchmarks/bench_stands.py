@@ -126,9 +126,9 @@ def two_stand_run(tmp: Path, density: float = 12.0) -> dict:
                                        for k in ("trees", "planting_positions", "missing_trees",
                                                  "suppressed_trees", "stocking_pct",
                                                  "row_azimuth")}
+                     for _, row in st.iterrows()}
         for _, row in st.iterrows():
             out[name][row["stand_id"]]["spacing"] = row["spacing"]
-                     for _, row in st.iterrows()}
         del r
     for sid, t in zip(("A", "B"), truths):
         pos = t["positions"]

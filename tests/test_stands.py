@@ -234,3 +234,23 @@ def test_planting_lattice_found_from_tops_on_a_chm_grid(rows, trees, azimuth):
     assert np.allclose(got, sorted([rows, trees]), rtol=0.02)
     d = abs((g.azimuth - azimuth + 90) % 180 - 90)
     assert d < 0.5 or (rows == trees and abs(d - 90) < 0.5)
+
+
+def test_evaluate_per_stand_when_the_reference_has_a_stand_id(two_stands, tmp_path):
+    from lidartrees_gis.report.evaluate import evaluate_file
+
+    t = two_stands["trees"].copy()
+    t["talhao"] = np.where(t["x"] < OX + 80, "T-01", "T-02")
+    ref = tmp_path / "ref.csv"
+    t.to_csv(ref, sep=";", decimal=",", index=False)  # a pt-BR spreadsheet
+    out = two_stands["dir"] / "e.gpkg"
+    _run(["trees", str(two_stands["las"]), str(out), "-stands", str(two_stands["stands"])])
+    r = evaluate_file(out, ref)
+    st = r["stands"]
+    assert set(st) == {"T-01", "T-02"}
+    assert st["T-01"]["reference"] == two_stands["truth"]["T-01"]["trees"]
+    assert st["T-02"]["reference"] == two_stands["truth"]["T-02"]["trees"]
+    assert sum(s["matched"] for s in st.values()) == r["all"]["matched"]
+    assert sum(s["detected"] for s in st.values()) <= r["all"]["detected"]
+    assert all(s["f_score"] > 0.95 for s in st.values())
+    assert "| stand T-02 |" in r["table"]

@@ -187,7 +187,7 @@ def test_plantation_mode_in_tiles_reports_the_stocking_of_one_file(tmp_path):
     sparse = tmp_path / "sparse.laz"
     write_points(sparse, pts.x, pts.y, pts.z, crs=PCRS.from_user_input(SCRS),
                  classification=pts.classification)
-    with pytest.warns(Warning, match="under-reported"):
+    with pytest.warns(Warning, match="stocking and the gaps are unreliable"):
         trees_tiled(sparse, tmp_path / "sparse.gpkg", params=p, tile_size=30, workers=1)
 
 

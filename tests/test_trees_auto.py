@@ -478,7 +478,7 @@ def test_plantation_mode_warns_that_sparse_data_under_report_stocking(tmp_path, 
         write_points(files[density], pts.x, pts.y, pts.z, crs=PCRS.from_user_input(CRS),
                      classification=pts.classification)
     sparse = data_warnings(files[2.0], params=TreeParams(spacing="3x2"))
-    assert len(sparse) == 1 and "under-reported" in sparse[0]
+    assert len(sparse) == 1 and "stocking and the gaps are unreliable" in sparse[0]
     assert 1.7 <= float(sparse[0].split()[0]) <= 2.3  # the measured density
     assert data_warnings(files[6.0], params=TreeParams(spacing="3x2")) == []
     assert data_warnings(files[2.0]) == []  # no stocking without -spacing

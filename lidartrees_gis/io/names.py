@@ -38,6 +38,7 @@ TREE_COLUMNS = {
           "utmn"),
     "height": ("height", "h", "ht", "z", "treeheight", "zmax", "totalheight", "altura",
                "alturatotal", "htm", "alturam", "alt"),
+    "stand": ("standid", "stand", "talhao", "idtalhao", "codtalhao", "codigotalhao"),
 }
 
 

@@ -159,7 +159,7 @@ def read_trees(path, *, layer=None) -> dict:
             h = df[hc].to_numpy(float) if hc else None
         except ValueError as exc:
             raise InputError(f"{p}: non-numeric values in the coordinate/height columns ({exc})") from None
-        return {"x": x, "y": y, "height": h, "crs": None, "n": len(x)}
+        return {"x": x, "y": y, "height": h, "crs": None, "n": len(x), "stand": _stands(df)}
     import pyogrio
 
     try:
@@ -183,7 +183,46 @@ def read_trees(path, *, layer=None) -> dict:
     hc = _pick(gdf.columns, "height")
     h = gdf[hc].to_numpy(float) if hc else None
     return {"x": geom.x.to_numpy(), "y": geom.y.to_numpy(), "height": h,
-            "crs": gdf.crs.to_wkt() if gdf.crs else None, "n": len(gdf), "layer": layer}
+            "crs": gdf.crs.to_wkt() if gdf.crs else None, "n": len(gdf), "layer": layer,
+            "stand": _stands(gdf)}
+
+
+def _stands(df):
+    """The trees' stand ids as strings ("" for none) when the table has a stand column."""
+    sc = _pick([c for c in df.columns if c != "geometry"], "stand")
+    if sc is None:
+        return None
+    v = df[sc]
+    return np.asarray(["" if (isinstance(a, float) and not np.isfinite(a)) or a is None else
+                       (str(int(a)) if isinstance(a, float) and a.is_integer() else str(a))
+                       for a in v.tolist()], dtype=object)
+
+
+def per_stand(det, ref, det_idx, ref_idx, max_dist: float) -> dict:
+    """Scores per stand when the reference gives each tree's stand: its reference trees, the
+    detections matched to them, and the unmatched detections of the stand (their own
+    ``stand_id`` when the detections have one, else the stand of the nearest reference tree
+    within ``max_dist``; farther ones count in no stand)."""
+    from scipy.spatial import cKDTree
+
+    rs = ref["stand"]
+    ds = np.full(len(det["x"]), "", dtype=object)
+    ds[det_idx] = rs[ref_idx]
+    free = np.ones(len(det["x"]), bool)
+    free[det_idx] = False
+    if free.any():
+        if det.get("stand") is not None:
+            ds[free] = det["stand"][free]
+        else:
+            dist, k = cKDTree(np.c_[ref["x"], ref["y"]]).query(
+                np.c_[det["x"][free], det["y"][free]], distance_upper_bound=max_dist)
+            ok = np.isfinite(dist)
+            ds[np.nonzero(free)[0][ok]] = rs[k[ok]]
+    out = {}
+    for sid in sorted(set(rs.tolist()) - {""}):
+        m = int((rs[ref_idx] == sid).sum())
+        out[sid] = _scores(int((ds == sid).sum()), int((rs == sid).sum()), m)
+    return out
 
 
 def read_area(area, crs_wkt=None):
@@ -258,6 +297,8 @@ def evaluate_file(detected, reference, output=None, *, layer=None, ref_layer=Non
                           f"horizontally, <= {max_dz:g} m in height", **r}
     if area_note:
         report["area"] = area_note
+    if ref.get("stand") is not None and len(ref["stand"]) == len(ref["x"]):
+        report["stands"] = per_stand(det, ref, d, rr, max_dist)
     if output is not None:
         with atomic_output(output, overwrite) as tmp:
             if str(output).lower().endswith(".csv"):
@@ -285,7 +326,8 @@ def _within_area(det, ref, area, max_dist, max_dz):
 
     geom, text = read_area(area, det.get("crs") or ref.get("crs"))
     pick = lambda t, m: {**t, "x": t["x"][m], "y": t["y"][m], "n": int(m.sum()),  # noqa: E731
-                         "height": None if t["height"] is None else t["height"][m]}
+                         "height": None if t["height"] is None else t["height"][m],
+                         "stand": None if t.get("stand") is None else t["stand"][m]}
     rin = shapely.contains_xy(geom, ref["x"], ref["y"])
     if not rin.any():
         raise InputError(f"-area: no reference tree inside {text}")
@@ -309,10 +351,9 @@ def format_report(report: dict) -> str:
     """Markdown table of an evaluation report."""
     rows = ["| trees | detected | reference | matched | recall | precision | F | height bias (m) | "
             "height RMSE (m) |", "|---|---|---|---|---|---|---|---|---|"]
-    for k in ("all", "dominant"):
-        if k not in report:
-            continue
-        s = report[k]
+    parts = [(k, report[k]) for k in ("all", "dominant") if k in report]
+    parts += [(f"stand {k}", v) for k, v in (report.get("stands") or {}).items()]
+    for k, s in parts:
         hb = s.get("height_bias")
         hr = s.get("height_rmse")
         rows.append(f"| {k} | {s['detected']} | {s['reference']} | {s['matched']} | "
