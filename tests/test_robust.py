@@ -274,10 +274,11 @@ def test_ground_on_a_strip_one_refinement_cell_wide():
 
 
 def test_second_round_of_the_independent_fuzzer(tmp_path, capsys):
-    """Its 10,000-case run found: a laszip VLR whose chunk size was overwritten (3.7 billion
+    """Its 10,000-case runs found: a laszip VLR whose chunk size was overwritten (3.7 billion
     points a chunk) aborted the process (the decoder allocated 205 GB); -iterations 1e9 ran
     until killed; -nln /tmp/x raised GDAL's error as a traceback; stem -hspacing inf an
-    IndexError. Now one line each, nothing written."""
+    IndexError; profile -sigma inf an OverflowError. Now one line each (no option takes nan or
+    inf), nothing written."""
     import struct
 
     from lidartrees_gis.io.lasout import write_points
@@ -305,7 +306,13 @@ def test_second_round_of_the_independent_fuzzer(tmp_path, capsys):
              (["trees", str(laz), str(tmp_path / "t.gpkg"), "-nln", "/tmp/x"],
               "-nln: '/tmp/x'"),
              (["stem", str(laz), str(tmp_path / "s"), "-hspacing", "inf"],
-              "-hspacing must be a number > 0")]
+              "-hspacing: expected a finite number"),
+             (["stem", str(laz), str(tmp_path / "s"), "-hspacing", "2"],
+              "-hspacing 2 m is wider than the search window"),
+             (["profile", str(laz), str(tmp_path / "p.laz"), "-sigma", "inf"],
+              "-sigma: expected a finite number"),
+             (["profile", str(laz), str(tmp_path / "p.laz"), "-sigma", "1e6"],
+              "-sigma must be > 0 and <= 10 m")]
     for argv, words in cases:
         assert main(argv + ["-q"]) == 1, argv
         err = capsys.readouterr().err.strip().splitlines()

@@ -15,14 +15,16 @@ def _number(kw, name, kind=float):
         return None
     try:
         f = float(v)
+        if f != f or f in (float("inf"), float("-inf")):  # nan, inf: no option takes them
+            raise ValueError
         if kind is int:
             if f != int(f):
                 raise ValueError
             return int(f)
         return f
     except (TypeError, ValueError, OverflowError):
-        raise InputError(f"-{name}: expected {'a whole number' if kind is int else 'a number'}, "
-                         f"got {v!r}") from None
+        raise InputError(f"-{name}: expected {'a whole number' if kind is int else 'a finite number'}"
+                         f", got {v!r}") from None
 
 
 def _read(kw, georeferenced=True):

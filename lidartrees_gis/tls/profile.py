@@ -67,10 +67,10 @@ def zero_crossings(d2, z):
 def density_profile(z, *, bin: float = 0.05, sigma: float = 0.3):  # noqa: A002 - seed's name
     """Counts per slice, smoothed counts and second derivative. Returns a dict with ``z`` (slice
     centres above z_min), ``counts``, ``smooth``, ``d2``."""
-    if not bin > 0:
-        raise InputError(f"-bin must be > 0 m, got {bin}")
-    if not sigma > 0:
-        raise InputError(f"-sigma must be > 0 m, got {sigma}")
+    if not 0 < bin <= 5:
+        raise InputError(f"-bin must be > 0 and <= 5 m, got {bin}")
+    if not 0 < sigma <= 10:
+        raise InputError(f"-sigma must be > 0 and <= 10 m, got {sigma}")
     z = np.asarray(z, dtype=np.float64)
     if z.size < 10:
         raise InputError(f"profile: {z.size} points; too few for a profile")
