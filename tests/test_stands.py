@@ -100,7 +100,9 @@ def test_each_stand_gets_its_own_lattice_and_stocking(two_stands, capsys):
                                                                  stands["missing_trees"]))
     tops = gpd.read_file(out, layer="tree_tops")
     crowns = gpd.read_file(out, layer="crowns")
-    assert (tops["stand_id"] == crowns["stand_id"]).all()
+    crowned = tops[tops.suppressed == 0].set_index("tree_id")
+    assert (crowned["stand_id"] == crowns.set_index("tree_id").loc[crowned.index, "stand_id"]).all()
+    assert len(crowns) == len(crowned)  # a suppressed tree has no crown polygon
     counts = tops["stand_id"].value_counts().to_dict()
     assert counts == dict(zip(stands["stand_id"], stands["trees"]))
     # the CSV holds the layer's figures

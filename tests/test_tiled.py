@@ -109,7 +109,9 @@ def test_tiled_equals_untiled_on_a_stand_split_in_files(split_stand, tmp_path):
     np.testing.assert_allclose(ca.crown_area, cb.crown_area, rtol=1e-12)
     assert ca.geometry.geom_equals(cb.geometry).all()
     tops = gpd.read_file(tmp_path / "a.gpkg", layer="tree_tops").set_index("tree_id")
-    assert all(ca.geometry[i].contains(tops.geometry[i]) for i in tops.index)
+    crowned = tops.index[tops.suppressed == 0]  # a suppressed tree has no crown polygon
+    assert set(crowned) == set(ca.index)
+    assert all(ca.geometry[i].contains(tops.geometry[i]) for i in crowned)
     assert tops.crs.to_epsg() == 29194 and tops.index.is_unique
     # and the trees are the stand's (the files' seams do not split or double them)
     from lidartrees_gis.report.evaluate import evaluate_trees
@@ -138,7 +140,8 @@ def test_tiles_look_for_a_planting_lattice_as_one_file_does(tmp_path):
                       params=TreeParams(planting="none"))
     assert tiled["tiles"] == tiled["planting_tiles"] == 6 and off["planting_tiles"] == 0
     assert tiled["planting_detected"] == "3.00x2.00" and off["gap_trees"] == 0
-    assert tiled["gap_trees"] >= 10 and tiled["trees"] == off["trees"] + tiled["gap_trees"]
+    assert tiled["gap_trees"] >= 10 and off["suppressed_trees"] == 0
+    assert tiled["trees"] == off["trees"] + tiled["gap_trees"] + tiled["suppressed_trees"]
     ids = set(whole["tree_ids"])
     assert len(ids ^ set(tiled["tree_ids"])) <= 2
     tops = pyogrio.read_dataframe(tmp_path / "tiled.gpkg", layer="tree_tops")
@@ -506,7 +509,8 @@ def test_tiled_layers_are_complete_and_indexed(split_stand, tmp_path):
     try:
         for t in ("tree_tops", "crowns", "b_tree_tops", "b_crowns"):
             n = con.execute(f'SELECT count(*) FROM "{t}"').fetchone()[0]
-            assert n == a["trees"]
+            # a suppressed tree (no top, under its neighbours) has no crown polygon
+            assert n == a["trees"] - (a["suppressed_trees"] if "crowns" in t else 0)
             assert con.execute(f'SELECT count(*) FROM "rtree_{t}_geom"').fetchone()[0] == n
             assert pyogrio.read_info(out, layer=t)["capabilities"]["fast_spatial_filter"]
         assert con.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
@@ -514,8 +518,8 @@ def test_tiled_layers_are_complete_and_indexed(split_stand, tmp_path):
         con.close()
     info = pyogrio.read_info(out, layer="crowns")
     assert list(info["fields"]) == ["tree_id", "x", "y", "height", "crown_area", "crown_diameter",
-                                    "n_cells", "row_number", "plant_number", "method",
-                                    "small_crown"]
+                                    "n_cells", "row_number", "plant_number", "suppressed",
+                                    "method", "small_crown"]
     assert info["geometry_type"] == "Polygon" and "29194" in info["crs"]
     assert json.loads(info["layer_metadata"]["tiles"]) > 1
     assert sorted(p.name for p in tmp_path.iterdir()) == ["t.gpkg"]

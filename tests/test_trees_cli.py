@@ -11,7 +11,7 @@ from lidartrees_gis.cli import main
 
 pytestmark = pytest.mark.realdata
 FIELDS = ["tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_cells", "row_number",
-          "plant_number", "method", "small_crown"]
+          "plant_number", "suppressed", "method", "small_crown"]
 
 
 @pytest.fixture(scope="module")

@@ -337,7 +337,7 @@ def plan_area(area, surface: SurfaceOptions, tiling: TilingOptions, *, runner, p
         if keep and len(windows) == 1 and math.isinf(ts):
             # the area is one window and one tile: its surfaces serve both, computed once here
             kept = box_surfaces(area, windows[0], res, surface,
-                                keep_points=params is not None and params.spacing is not None,
+                                keep_points=params is not None and params.looks_at_planting,
                                 progress=SubProgress(prog, 0.3, 1.0))
             measures = [window_measures(kept, params)]
         else:

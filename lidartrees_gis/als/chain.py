@@ -352,6 +352,7 @@ def _trees_result(output, area, plan, summary, row, p, layers, surface) -> dict:
            "mean_height": _round(row["mean_height"], 2),
            "mean_crown_diameter": _round(row["mean_crown_diameter"], 2),
            "small_crowns": int(row["small_crowns"]),
+           "suppressed_trees": int(row["suppressed_trees"]),
            "trees_per_ha": _round(row["trees_per_ha"], 1),
            "gap_trees": int(row["gap_trees"]),
            "planting_detected": row["planting_detected"] or None,
@@ -359,7 +360,7 @@ def _trees_result(output, area, plan, summary, row, p, layers, surface) -> dict:
            "tree_ids": summary.tree_ids}
     if p.spacing is not None:
         out.update({k: row[k] for k in ("spacing", "row_azimuth", "planting_positions",
-                                         "suppressed_trees", "missing_trees", "numbering")})
+                                         "missing_trees", "numbering")})
         out["stocking_pct"] = _round(row["stocking_pct"], 2)
     if output is None:
         out["layers"] = layers.frames()

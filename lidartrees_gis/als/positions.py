@@ -121,7 +121,7 @@ SUPPRESSED_WIDE = 0.4
 
 
 def suppressed_at(gaps_x, gaps_y, points, spacing, dominant_height: float,
-                  min_height: float = 2.0) -> np.ndarray:
+                  min_height: float = 2.0, heights: bool = False):
     """Which empty planting positions hold a suppressed tree (see :data:`SUPPRESSED_SHARE`).
 
     Parameters
@@ -135,13 +135,19 @@ def suppressed_at(gaps_x, gaps_y, points, spacing, dominant_height: float,
     dominant_height : float
         The stand's dominant height (m); a suppressed tree reaches at least
         ``SUPPRESSED_HEIGHT`` of it (and ``min_height``).
+    heights : bool
+        Also return each suppressed tree's height and position: those of the highest return
+        near it (NaN for the others; a tiled run, whose tiles each fit the lattice, finds the
+        same return).
     """
     from scipy.spatial import cKDTree
 
     gx, gy = np.asarray(gaps_x, float), np.asarray(gaps_y, float)
     out = np.zeros(gx.size, bool)
+    hts = np.full(gx.size, np.nan)
+    xs, ys = gx.copy(), gy.copy()
     if not gx.size or points is None or not len(points[0]):
-        return out
+        return (out, hts, xs, ys) if heights else out
     px, py, ph = (np.asarray(a) for a in points)
     thr = max(float(min_height), SUPPRESSED_HEIGHT * float(dominant_height))
     # only the points near a position matter: the tree of a tile's points is built once
@@ -155,20 +161,26 @@ def suppressed_at(gaps_x, gaps_y, points, spacing, dominant_height: float,
         d2 = (px[idx] - gx[k]) ** 2 + (py[idx] - gy[k]) ** 2
         close = idx[d2 <= r2]
         use = close if close.size >= SUPPRESSED_MIN_RETURNS else idx
-        out[k] = np.mean(ph[use] >= thr) >= SUPPRESSED_SHARE
-    return out
+        high = ph[use] >= thr
+        out[k] = np.mean(high) >= SUPPRESSED_SHARE
+        if out[k]:  # the highest return near the position: the same whichever tile's lattice
+            top = use[int(np.argmax(ph[use]))]
+            hts[k], xs[k], ys[k] = float(ph[top]), px[top], py[top]
+    return (out, hts, xs, ys) if heights else out
 
 
 def classify_gaps(st: dict, points, spacing, dominant_height: float,
                   min_height: float = 2.0) -> dict:
     """:func:`stocking`'s (or :func:`stocking_by_stand`'s) result with each empty position
-    classified (``gaps_status``: 1 suppressed, 0 missing): ``missing`` counts only the
+    classified (``gaps_status``: 1 suppressed, 0 missing; ``gaps_height``: the suppressed
+    trees' heights, :func:`suppressed_at`): ``missing`` counts only the
     missing ones, ``suppressed`` the others, per zone too, and ``stocking_pct`` takes the
     suppressed trees as stocking their positions."""
-    sup = suppressed_at(st["gaps_x"], st["gaps_y"], points, spacing, dominant_height,
-                        min_height)
+    sup, hts, xs, ys = suppressed_at(st["gaps_x"], st["gaps_y"], points, spacing,
+                                     dominant_height, min_height, heights=True)
     st = dict(st)
     st["gaps_status"] = sup.astype(np.int8)
+    st["gaps_height"], st["gaps_tree_x"], st["gaps_tree_y"] = hts, xs, ys
     st["suppressed"] = int(sup.sum())
     st["missing"] = int(st["missing"]) - st["suppressed"]
     e = st["expected"]

@@ -46,6 +46,7 @@ class TreesSummary(Tally):
         super().__init__()
         self.n, self.hsum, self.h2sum, self.dsum = 0, 0.0, 0.0, 0.0
         self.canopy, self.gap_trees, self.small = 0, 0, 0
+        self.crowned, self.suppressed = 0, 0
         self.lattices, self.azimuths, self.ids, self.spacings = [], [], [], []
         self.numbering, self.numbered = "", 0
         self.stock = dict.fromkeys(self.STOCK, 0)
@@ -55,11 +56,14 @@ class TreesSummary(Tally):
         super().add(r)
         self.ids.append(np.asarray(r["tree_id"], np.int64))
         h = np.asarray(r["height"], float)
+        sup = np.asarray(r["suppressed"]) == 1  # no crown of their own
         self.n += h.size
         self.hsum += float(h.sum())
         self.h2sum += float((h ** 2).sum())
         self.dsum += float(np.sum(r["crown_diameter"]))
-        self.small += int(small_crowns(r["crown_area"], r["n_cells"]).sum())
+        self.crowned += int((~sup).sum())
+        self.suppressed += int(sup.sum())
+        self.small += int((small_crowns(r["crown_area"], r["n_cells"]) & ~sup).sum())
         self.canopy += r["canopy_cells"]
         self.gap_trees += r["gap_trees"]
         if r["planting"]:
@@ -103,8 +107,10 @@ class TreesSummary(Tally):
         sd_h = float(np.sqrt(max(self.h2sum - n * mean_h ** 2, 0.0) / (n - 1))) if n > 1 else np.nan
         row = {"trees": n, "area_ha": area_ha, "trees_per_ha": n / area_ha if area_ha else np.nan,
                "mean_height": mean_h, "sd_height": sd_h,
-               "mean_crown_diameter": self.dsum / n if n else np.nan,
+               "mean_crown_diameter": self.dsum / self.crowned if self.crowned else np.nan,
                "small_crowns": self.small,
+               # trees at an empty planting position with no top (no crown polygon)
+               "suppressed_trees": self.suppressed,
                "method": params.method, "smooth": smooth,
                "tops": self.tops_label(params),
                "res": res, "crown_scale": plan.crown_scale, "dominant_height": plan.dominant_height,
@@ -212,7 +218,8 @@ class TreeLayers:
         if self.stand_ids is not None:
             data["stand_id"] = stand_names(stand, self.stand_ids)
         data["method"] = np.full(len(data["tree_id"]), self.method, dtype=object)
-        data["small_crown"] = small_crowns(data["crown_area"], data["n_cells"]).astype(np.int32)
+        data["small_crown"] = (small_crowns(data["crown_area"], data["n_cells"])
+                               & (data["suppressed"] == 0)).astype(np.int32)
         return data
 
     def frames(self) -> dict:
@@ -225,10 +232,12 @@ class TreeLayers:
         wkb = [np.concatenate([p[g] for p in self.parts]) if self.parts else np.empty(0, object)
                for g in ("top_wkb", "wkb")]
         crs = self.crs.to_wkt() if self.crs is not None else None
+        crowned = (attrs["suppressed"] == 0).to_numpy()  # a suppressed tree has no crown
         out = {self.names["tree_tops"]: gpd.GeoDataFrame(attrs.copy(), crs=crs,
                                                          geometry=shapely.from_wkb(wkb[0])),
-               self.names["crowns"]: gpd.GeoDataFrame(attrs.copy(), crs=crs,
-                                                      geometry=shapely.from_wkb(wkb[1]))}
+               self.names["crowns"]: gpd.GeoDataFrame(
+                   attrs[crowned].reset_index(drop=True), crs=crs,
+                   geometry=shapely.from_wkb(wkb[1][crowned]))}
         if self.plantation:
             g = {k: np.concatenate([p[k] for p in self.gaps]) for k in self.gaps[0]} \
                 if self.gaps else {k: np.empty(0) for k in ("gap_id", "row_number",
@@ -312,9 +321,13 @@ class GpkgTreeLayers(TreeLayers):
     def flush(self) -> None:
         if self.pending:
             data = self._fields(self.pending)
+            crowned = data["suppressed"] == 0  # a suppressed tree has no crown polygon
             for layer, g, kind in (("tree_tops", "top_wkb", "Point"), ("crowns", "wkb", "Polygon")):
-                self._raw(np.concatenate([p[g] for p in self.pending]), data, self.names[layer],
-                          kind)
+                wkb = np.concatenate([p[g] for p in self.pending])
+                fields = data
+                if layer == "crowns" and not crowned.all():
+                    wkb, fields = wkb[crowned], {k: v[crowned] for k, v in data.items()}
+                self._raw(wkb, fields, self.names[layer], kind)
         self.pending, self.pending_rows = [], 0
 
     def finish(self, summary: dict, plantation: bool, stands=None) -> None:

@@ -275,6 +275,7 @@ class StandsTally:
         self.stands = stands
         self.heights = [[] for _ in range(n)]
         self.dsum = np.zeros(n)
+        self.crowned = np.zeros(n, np.int64)
         self.cells = np.zeros((n, 2), np.int64)
         self.stock = {k: np.zeros(n) for k in STOCK}
         self.azimuths = [[] for _ in range(n)]
@@ -285,11 +286,13 @@ class StandsTally:
         s = np.asarray(r["stand"], np.int64)
         h = np.asarray(r["height"], float)
         d = np.asarray(r["crown_diameter"], float)
+        crowned = np.asarray(r["suppressed"]) == 0
         self.outside += int((s < 0).sum())
         for k in np.unique(s[s >= 0]).tolist():
             sel = s == k
             self.heights[k].append(h[sel].astype(np.float32))
             self.dsum[k] += float(d[sel].sum())
+            self.crowned[k] += int((sel & crowned).sum())
         for k, (data, canopy) in (r.get("stand_cells") or {}).items():
             self.cells[k] += (data, canopy)
         for k, st in (r.get("stand_stocking") or {}).items():
@@ -325,7 +328,8 @@ class StandsTally:
                    "mean_height": float(h.mean()) if n else np.nan,
                    "sd_height": float(h.std(ddof=1)) if n > 1 else np.nan,
                    "dominant_height": float(np.sort(h)[-ndom:].mean()) if n and ndom else np.nan,
-                   "mean_crown_diameter": self.dsum[k] / n if n else np.nan,
+                   "mean_crown_diameter": (self.dsum[k] / self.crowned[k] if self.crowned[k]
+                                           else np.nan),
                    "canopy_cover_pct": (100.0 * self.cells[k, 1] / self.cells[k, 0]
                                         if self.cells[k, 0] else np.nan)}
             lo = 0.0

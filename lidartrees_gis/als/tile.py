@@ -20,10 +20,12 @@ from .trees import TreeParams, detect_trees
 
 #: the per-tree fields every tile sends back (and every output carries)
 TREE_FIELDS = ("tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n_cells",
-               "row_number", "plant_number", "stand")
+               "row_number", "plant_number", "stand", "suppressed")
 #: the integer ones (row and plant numbers: plantation mode, 0 for a tree on no position;
-#: stand: the index of the tree's stand with -stands, -1 for none, written as stand_id)
-INT_FIELDS = ("tree_id", "n_cells", "row_number", "plant_number", "stand")
+#: stand: the index of the tree's stand with -stands, -1 for none, written as stand_id;
+#: suppressed: 1 for a tree at a planting position with no top of its own, under or beside
+#: its neighbours' crowns: no crown polygon, its height from the returns there)
+INT_FIELDS = ("tree_id", "n_cells", "row_number", "plant_number", "stand", "suppressed")
 
 #: plantation mode warns below this point density (points/m² of the area): planted trees lower
 #: than their in-row neighbours are often missed and empty positions misread (measured on
@@ -83,6 +85,7 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
         grid = detect_planting(t["x"], t["y"])
         if grid is not None:
             spacing = (grid.row_spacing, grid.tree_spacing)
+            result = _planted_separation(result, arr, spec, params, heights, spacing)
             result["planting_detected"] = (grid.row_spacing, grid.tree_spacing)
     if spacing is None:
         result["gap_trees"] = 0
@@ -108,12 +111,18 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
                 t = result["table"]
                 st = stocking_by_stand(t["x"], t["y"], arr, spec, spacing, zone,
                                        min_height=params.min_height, within=within)
+    hd = params.dominant_height
+    if hd is None:
+        canopy = arr[np.isfinite(arr) & (arr >= params.min_height)]
+        hd = float(np.percentile(canopy, 95)) if canopy.size else params.min_height
     if given:  # the stocking report (gaps layer) is for plantation mode only
-        hd = params.dominant_height
-        if hd is None:
-            canopy = arr[np.isfinite(arr) & (arr >= params.min_height)]
-            hd = float(np.percentile(canopy, 95)) if canopy.size else params.min_height
         result["stocking"] = classify_gaps(st, points, st["spacing"], hd, params.min_height)
+    elif points is not None and st["missing"]:  # a lattice under the defaults' tops: its
+        if added:  # empty positions holding a suppressed tree (no stocking report)
+            t = result["table"]
+            st = stocking_by_stand(t["x"], t["y"], arr, spec, spacing, None,
+                                   min_height=params.min_height, grid=grid, within=within)
+        result["understorey"] = classify_gaps(st, points, st["spacing"], hd, params.min_height)
     result["gap_trees"] = added
     return result
 
@@ -142,7 +151,7 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
     prog = as_progress(progress)
     s = surfaces if surfaces is not None else box_surfaces(
         area, tile.box, plan.res, surface, stats=plan.stats,
-        keep_points=params.spacing is not None, progress=prog)
+        keep_points=params.looks_at_planting, progress=prog)
     if s is None:
         return _empty_trees(tile, plan.res)
     spec = s["spec"]
@@ -169,8 +178,11 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
         t = {**t, "row_number": np.zeros(len(t["x"]), np.int64),
              "plant_number": np.zeros(len(t["x"]), np.int64)}
     t["stand"] = locate(stands, t["x"], t["y"])
+    t["suppressed"] = np.zeros(len(t["x"]), np.int64)
     out = {c: np.asarray(t[c])[idx] for c in TREE_FIELDS}
     out["gap_trees"] = _core_gap_trees(r, t, idx)
+    under = _suppressed_trees(st if st is not None else r.get("understorey"), tile, spec.res,
+                              stands)
     out["planting"] = r.get("planting_detected")
     out["stocking"] = None if st is None else {
         **{k: st[k] for k in ("expected", "stocked", "missing", "extra", "planted_area_ha",
@@ -179,8 +191,13 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
         "azimuth": st["grid"].azimuth if st["grid"] is not None else float("nan"),
         "spacing": st["spacing"]}
     out["stand_stocking"] = None if st is None else st["zones"]
-    out["wkb"] = shapely.to_wkb(np.asarray(polys, dtype=object)) if idx.size else []
-    out["top_wkb"] = shapely.to_wkb(shapely.points(out["x"], out["y"])) if idx.size else []
+    if under is not None:  # no crown of their own: a NULL crown polygon
+        out = {c: np.r_[out[c], under[c]] for c in TREE_FIELDS} | {
+            k: v for k, v in out.items() if k not in TREE_FIELDS}
+        polys = list(polys) + [None] * len(under["x"])
+    n = len(out["x"])
+    out["wkb"] = shapely.to_wkb(np.asarray(polys, dtype=object)) if n else []
+    out["top_wkb"] = shapely.to_wkb(shapely.points(out["x"], out["y"])) if n else []
     r0, r1, c0, c1 = core_window(spec, tile.core)
     core = s["chm"][r0:r1, c0:c1]
     out.update({"chm": core.astype(np.float32) if send_chm else np.empty((0, 0), np.float32),
@@ -191,6 +208,51 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
                 "stand_cells": {} if zone is None else stand_cells(zone[r0:r1, c0:c1], core,
                                                                      params.min_height)})
     return out
+
+
+def _planted_separation(result, arr, spec, params: TreeParams, heights, spacing) -> dict:
+    """The defaults' tops again with plantation mode's separation (``SEPARATION_PLANTED`` x
+    the smaller spacing of the lattice found under them), when it is wider than theirs and no
+    ``-min_separation`` was given: small crowns a spacing apart measure a small crown scale,
+    whose separation lets a crown keep two tops (precision 0.88 on 0.6-1.0 m crowns at 3 x 2 m,
+    benchmarks/_family.py)."""
+    from dataclasses import replace
+
+    from .trees import SEPARATION_CELLS, SEPARATION_CROWNS, SEPARATION_PLANTED
+
+    if params.min_separation is not None or params.tops_finder != "aw":
+        return result
+    cs = result.get("auto", {}).get("crown_scale")
+    if cs is None:
+        return result
+    sep = min(SEPARATION_CELLS * spec.res, SEPARATION_CROWNS * cs)
+    planted = SEPARATION_PLANTED * min(spacing)
+    if planted <= sep:
+        return result
+    return detect_trees(arr, spec, replace(params, min_separation=planted), heights=heights)
+
+
+def _suppressed_trees(st, tile: Tile, res: float, stands) -> dict | None:
+    """The suppressed trees of a tile's core: the empty planting positions classified as
+    holding one (:func:`lidartrees_gis.als.positions.classify_gaps`), as tree rows."""
+    from .metrics import tree_ids
+    from .stands import locate
+
+    if st is None or "gaps_status" not in st:
+        return None
+    gx, gy = np.asarray(st["gaps_tree_x"], float), np.asarray(st["gaps_tree_y"], float)
+    keep = (np.asarray(st["gaps_status"]) == 1) & tile.in_core(gx, gy)
+    if not keep.any():
+        return None
+    n = int(keep.sum())
+    zero = np.zeros(n)
+    return {"tree_id": tree_ids(gx[keep], gy[keep], res), "x": gx[keep], "y": gy[keep],
+            "height": np.asarray(st["gaps_height"], float)[keep], "crown_area": zero,
+            "crown_diameter": zero, "n_cells": zero.astype(np.int64),
+            "row_number": np.asarray(st["gaps_row"], np.int64)[keep],
+            "plant_number": np.asarray(st["gaps_plant"], np.int64)[keep],
+            "stand": locate(stands, gx[keep], gy[keep]),
+            "suppressed": np.ones(n, np.int64)}
 
 
 def _core_gap_trees(r: dict, t: dict, idx) -> int:
