@@ -46,9 +46,11 @@ def run_demo(outdir="lidartrees_demo", *, overwrite=False, progress=None) -> dic
     import pyogrio
 
     tab = pyogrio.read_dataframe(gpkg, layer="tree_tops", read_geometry=False)
-    tab = {k: tab[k].to_numpy() for k in ("x", "y", "height", "crown_diameter")}
+    tab = {k: tab[k].to_numpy() for k in ("x", "y", "height", "crown_diameter", "suppressed")}
     ev = evaluate_trees(tab["x"], tab["y"], tab["height"], truth["x"], truth["y"], truth["height"])
     d, rr = ev.pop("pairs")
+    crowned = tab["suppressed"][d] == 0  # a suppressed tree has no crown to measure
+    d, rr = d[crowned], rr[crowned]
     cd_rmse = float(np.sqrt(np.mean((tab["crown_diameter"][d] - truth["visible_crown_diameter"][rr]) ** 2))) \
         if len(d) else float("nan")
     arr, spec, _ = read_raster(chm)
