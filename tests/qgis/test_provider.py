@@ -295,7 +295,7 @@ def test_plantation_mode_loads_gaps_and_evaluate_runs(qgis_app, tmp_path, stand)
 
 
 def test_data_warnings_reach_the_feedback_as_warnings(qgis_app, tmp_path):
-    """Plantation mode on 2 pts/m²: the CLI's warning that the stocking is under-reported is a
+    """Plantation mode on 2 pts/m²: the CLI's warning that the stocking is unreliable is a
     warning in QGIS's log, not console noise."""
     from pyproj import CRS
     from qgis.core import QgsProcessingFeedback
@@ -320,7 +320,7 @@ def test_data_warnings_reach_the_feedback_as_warnings(qgis_app, tmp_path):
     res = run("trees", {"INPUT": str(las), "OUTPUT": str(tmp_path / "t.gpkg"), "SPACING": "3x2"},
               fb)
     assert res["TREES"] > 400
-    assert len(fb.warnings) == 1 and "under-reported" in fb.warnings[0]
+    assert len(fb.warnings) == 1 and "stocking and the gaps are unreliable" in fb.warnings[0]
 
 
 def test_ground_declares_a_las_output_and_takes_a_temporary_one(qgis_app, tmp_path, data):
