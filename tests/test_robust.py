@@ -172,9 +172,8 @@ def test_isolated_low_and_high_points_are_removed_and_counted(data, tmp_path, ca
             assert float(a.read(1, masked=True).min()) > float(b.read(1, masked=True).min()) - 0.01
 
 
-@pytest.mark.realdata
-def test_one_point_far_from_the_rest_is_named_not_a_hang(data, tmp_path, capsys):
-    """A LAS with one point 100 km east of the rest: a clear refusal saying why, at once."""
+def _one_point_100_km_east(data, tmp_path):
+    """MixedConifer with its first point moved 100 km east: the LAS file and the points."""
     import laspy
 
     las = laspy.read(data("lidR_extdata/MixedConifer.laz"))
@@ -184,6 +183,13 @@ def test_one_point_far_from_the_rest_is_named_not_a_hang(data, tmp_path, capsys)
     las.update_header()
     f = tmp_path / "far.las"
     las.write(str(f))
+    return f, las
+
+
+@pytest.mark.realdata
+def test_one_point_far_from_the_rest_is_named_not_a_hang(data, tmp_path, capsys):
+    """A LAS with one point 100 km east of the rest: a clear refusal saying why, at once."""
+    f, _ = _one_point_100_km_east(data, tmp_path)
     assert main(["trees", str(f), str(tmp_path / "t.gpkg"), "-q"]) == 1
     err = capsys.readouterr().err
     assert "far from the rest" in err and "100,090" in err and "-tr" in err
@@ -194,17 +200,9 @@ def test_a_far_point_with_a_given_cell_size_is_named_in_a_warning(data, tmp_path
     """With -tr given the far point was accepted without a word and stretched the outputs
     1,112 times: a warning names the point, the others' extent and the grid it makes. Two
     halves of a file far apart (two farms) are not "a few points" and get no warning."""
-    import laspy
-
     from lidartrees_gis.als.area import far_points
 
-    las = laspy.read(data("lidR_extdata/MixedConifer.laz"))
-    x = np.asarray(las.x).copy()
-    x[0] += 100_000
-    las.x = x
-    las.update_header()
-    f = tmp_path / "far.las"
-    las.write(str(f))
+    f, las = _one_point_100_km_east(data, tmp_path)
     assert main(["chm", str(f), str(tmp_path / "c.tif"), "-tr", "0.5"]) == 0
     err = capsys.readouterr().err
     assert "1 point(s) lie far from the other 37,656" in err

@@ -390,7 +390,8 @@ def compute_surfaces(src, res: float, opts: SurfaceOptions | None = None, *,
         x, y, z = (np.concatenate([k[i] for k in acc.all]) for i in range(3))
         acc.all = None
         kept = (x, y, (z - bilinear(dtm, spec, x, y)).astype(np.float32))
-    return {"points_above_ground": kept, "dsm": dsm, "dtm": dtm, "chm": chm, "heights": heights, "returns": returns,
+    return {"points_above_ground": kept,
+            "dsm": dsm, "dtm": dtm, "chm": chm, "heights": heights, "returns": returns,
             "spec": spec, "res": res, "dtm_method": method.label(kind), "chm_method": opts.chm,
             "points": acc.n, "outside": acc.acc.outside, "dropped": dict(src.dropped),
             "density": acc.n / max(float(footprint.sum()) * spec.cell_area, 1e-9),
