@@ -352,16 +352,16 @@ class GpkgTreeLayers(TreeLayers):
                                     layer=self.names["summary"], driver="GPKG",
                                     append=self.names["summary"] in self.existing)
             if stands is not None:
-                self.stands = stands
-                pyogrio.write_dataframe(self._stands_frame(), self.path,
-                                        layer=self.names["stands"], driver="GPKG",
-                                        append=self.names["stands"] in self.existing,
-                                        layer_options=self.lco)
                 from ..io.vector import describe_columns
                 from .stands import field_docs
 
-                describe_columns(self.path, self.names["stands"],
-                                 field_docs(self._stands_frame().columns))
+                self.stands = stands
+                frame = self._stands_frame()
+                pyogrio.write_dataframe(frame, self.path, layer=self.names["stands"],
+                                        driver="GPKG",
+                                        append=self.names["stands"] in self.existing,
+                                        layer_options=self.lco)
+                describe_columns(self.path, self.names["stands"], field_docs(frame.columns))
         embed_styles(self.path, {self.names[k]: qml for k, qml in LAYER_STYLES.items()})
 
 

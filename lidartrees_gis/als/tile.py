@@ -111,10 +111,12 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
                 t = result["table"]
                 st = stocking_by_stand(t["x"], t["y"], arr, spec, spacing, zone,
                                        min_height=params.min_height, within=within)
-    hd = params.dominant_height
+    # the dominant height the adaptive window used (the plan's, or the CHM's 95th percentile)
+    hd = (result.get("auto") or {}).get("dominant_height", params.dominant_height)
     if hd is None:
-        canopy = arr[np.isfinite(arr) & (arr >= params.min_height)]
-        hd = float(np.percentile(canopy, 95)) if canopy.size else params.min_height
+        from .trees import resolve_auto
+
+        hd = resolve_auto(arr, spec.res, params)["dominant_height"]
     if given:  # the stocking report (gaps layer) is for plantation mode only
         result["stocking"] = classify_gaps(st, points, st["spacing"], hd, params.min_height)
     elif points is not None and st["missing"]:  # a lattice under the defaults' tops: its
