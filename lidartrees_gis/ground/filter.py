@@ -49,6 +49,7 @@ import numpy as np
 from ..errors import InputError
 from ..grid import GridSpec, check_sparse, fill_mean8
 from ..progress import as_progress, check_cancel
+from ._kernels import bilinear, lowest_index, kp_weights_fast, plane_surface, residuals, isolated_low
 
 
 @dataclass(frozen=True)
@@ -128,61 +129,36 @@ def shifted_g(v, weights, g):
 def low_points(x, y, z, depth=2.0, k=10):
     """Isolated low points: more than ``depth`` metres below the second lowest of their ``k``
     nearest neighbours (in plan)."""
-    from scipy.spatial import cKDTree
-
     if depth <= 0 or x.size <= k:
         return np.zeros(x.size, bool)
-    xy = np.column_stack([x, y])
-    _, idx = cKDTree(xy).query(xy, k=k + 1)
-    nz = np.partition(z[idx[:, 1:]], 1, axis=1)[:, 1]
-    return z < nz - depth
+    return isolated_low(x, y, z, depth, k)
 
 
-def _surface(x, y, z, wts, spec: GridSpec, plane=True):
+def _level_cells(x, y, spec: GridSpec):
+    """Flat cell of each point and its offset from the cell centre in cells (fixed per level)."""
+    row, col = spec.cell_index(x, y)
+    cx = spec.left + (col + 0.5) * spec.res
+    cy = spec.top - (row + 0.5) * spec.res
+    return row * spec.width + col, (x - cx) / spec.res, (y - cy) / spec.res
+
+
+def _surface(x, y, z, wts, spec: GridSpec, cells=None):
     """Filter surface at the cell centres: per cell the weighted least-squares plane of its points
     evaluated at the centre (the weighted mean where a plane is not determined: fewer than 3
-    points or all on a line), empty cells filled by mean8."""
-    row, col = spec.cell_index(x, y)
-    idx = row * spec.width + col
-    n = spec.width * spec.height
-    sw = np.bincount(idx, weights=wts, minlength=n)
-    swz = np.bincount(idx, weights=wts * z, minlength=n)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        grid = np.where(sw > 0, swz / sw, np.nan)
-    if plane:
-        cx = spec.left + (col + 0.5) * spec.res
-        cy = spec.top - (row + 0.5) * spec.res
-        dx, dy = (x - cx) / spec.res, (y - cy) / spec.res  # cell units: well conditioned
-        s = {k: np.bincount(idx, weights=wts * v, minlength=n)
-             for k, v in (("x", dx), ("y", dy), ("xx", dx * dx), ("xy", dx * dy), ("yy", dy * dy),
-                          ("xz", dx * z), ("yz", dy * z))}
-        M = np.stack([np.stack([sw, s["x"], s["y"]], -1), np.stack([s["x"], s["xx"], s["xy"]], -1),
-                      np.stack([s["y"], s["xy"], s["yy"]], -1)], -2)
-        rhs = np.stack([swz, s["xz"], s["yz"]], -1)
-        cnt = np.bincount(idx, weights=(wts > 0).astype(float), minlength=n)
-        det = np.linalg.det(M)
-        ok = (cnt >= 3) & (np.abs(det) > 1e-3 * np.maximum(sw, 1e-12) ** 3)
-        if ok.any():
-            sol = np.linalg.solve(M[ok], rhs[ok][..., None])[..., 0]
-            a = sol[:, 0]
-            # a plane fitted to a corner of the cell is not trusted far from its points
-            grid[ok] = np.where(np.abs(a - grid[ok]) < 2.0 * spec.res, a, grid[ok])
+    points or all on a line), empty cells filled by mean8. ``cells``: :func:`_level_cells`."""
+    idx, dx, dy = cells if cells is not None else _level_cells(x, y, spec)
+    grid = plane_surface(idx, dx, dy, z, wts, spec.width * spec.height, spec.res)
     return fill_mean8(grid.reshape(spec.shape))
 
 
 def _bilinear(grid, spec: GridSpec, x, y):
     """Bilinear interpolation of cell-centre values at points (edges clamped)."""
-    fc = (np.asarray(x) - spec.left) / spec.res - 0.5
-    fr = (spec.top - np.asarray(y)) / spec.res - 0.5
-    c0 = np.clip(np.floor(fc).astype(np.int64), 0, spec.width - 1)
-    r0 = np.clip(np.floor(fr).astype(np.int64), 0, spec.height - 1)
-    c1 = np.clip(c0 + 1, 0, spec.width - 1)
-    r1 = np.clip(r0 + 1, 0, spec.height - 1)
-    tx = np.clip(fc - c0, 0, 1)
-    ty = np.clip(fr - r0, 0, 1)
-    top = grid[r0, c0] * (1 - tx) + grid[r0, c1] * tx
-    bot = grid[r1, c0] * (1 - tx) + grid[r1, c1] * tx
-    return top * (1 - ty) + bot * ty
+    return bilinear(grid, spec.left, spec.top, spec.res, x, y)
+
+
+def _residuals(grid, spec: GridSpec, x, y, z):
+    """z minus the bilinear surface at the points."""
+    return residuals(grid, spec.left, spec.top, spec.res, x, y, z)
 
 
 def refine_cell(x, y) -> float:
@@ -199,11 +175,8 @@ def lowest_per_cell(x, y, z, sel, res):
         return m
     spec = GridSpec.from_bounds(x.min(), y.min(), x.max(), y.max(), res)
     r, c = spec.cell_index(x[idx], y[idx])
-    key = r * spec.width + c
-    o = np.lexsort((z[idx], key))
-    k = key[o]
-    first = np.r_[True, k[1:] != k[:-1]]
-    m[idx[o[first]]] = True
+    best = lowest_index(idx, r * spec.width + c, z, spec.width * spec.height)
+    m[best[best >= 0]] = True
     return m
 
 
@@ -230,7 +203,7 @@ def densify(x, y, z, ground, usable, params: KrausPfeifer, progress=None):
             break
         dtm = interpolate_tin(x[seed], y[seed], z[seed], spec, max_radius=np.inf)
         slope = _bilinear(_slope(dtm, res), spec, x, y)
-        v = z - _bilinear(dtm, spec, x, y)
+        v = _residuals(dtm, spec, x, y, z)
         new = (v <= p.refine_tolerance + p.slope * slope) & (v >= -1.0 - p.slope * slope)
         if np.array_equal(new, ground):
             break
@@ -238,13 +211,16 @@ def densify(x, y, z, ground, usable, params: KrausPfeifer, progress=None):
     return ground
 
 
-def kraus_pfeifer(x, y, z, params: KrausPfeifer | None = None, progress=None):
+def kraus_pfeifer(x, y, z, params: KrausPfeifer | None = None, progress=None, low=None):
     """Ground filter: hierarchical robust interpolation, then densification (see module doc).
 
     Parameters
     ----------
     x, y, z : (N,) ndarray of float
     params : KrausPfeifer
+    low : (N,) ndarray of bool, optional
+        The isolated low points (:func:`low_points` with ``params.low``), when the caller has
+        them already (a sweep over g and w computes them once).
 
     Returns
     -------
@@ -261,7 +237,7 @@ def kraus_pfeifer(x, y, z, params: KrausPfeifer | None = None, progress=None):
     for res in (p.cell, refine_cell(x, y)):
         check_sparse((b[2] - b[0] + res) * (b[3] - b[1] + res) / res ** 2, x.size, b, res,
                      "ground filter", limit=1000)  # ALS has < 20 cells of 1.5 m per point
-    usable = ~low_points(x, y, z, p.low)
+    usable = ~(low_points(x, y, z, p.low) if low is None else np.asarray(low, bool))
     if usable.sum() < 3:
         usable[:] = True
     ux, uy, uz = x[usable], y[usable], z[usable]
@@ -273,25 +249,26 @@ def kraus_pfeifer(x, y, z, params: KrausPfeifer | None = None, progress=None):
     for lev in range(levels):
         spec = GridSpec.from_bounds(ux.min(), uy.min(), ux.max(), uy.max(),
                                     p.cell * 2 ** (levels - 1 - lev))
+        cells = _level_cells(ux, uy, spec)
         for it in range(int(p.iterations)):
             check_cancel(progress)
-            surf = _surface(ux, uy, uz, wts, spec)
-            v = z - _bilinear(surf, spec, x, y)
+            surf = _surface(ux, uy, uz, wts, spec, cells)
+            v = _residuals(surf, spec, ux, uy, uz)
             if p.gshift and (lev or it):
-                g = shifted_g(v[usable], wts, p.g)
-            wts = kp_weights(v[usable], g, p.w + p.w_growth * (spec.res - p.cell), p.a, p.b)
+                g = shifted_g(v, wts, p.g)
+            wts = kp_weights_fast(v, g, p.w + p.w_growth * (spec.res - p.cell), p.a, p.b)
             if wts.sum() == 0:
                 raise InputError(f"ground filter: every weight became 0 at iteration {it + 1}; "
                                  "lower -g or raise -w")
             step += 1
             prog.update(step / total, f"level {lev + 1}/{levels}, iteration {it + 1}")
-    surf = _surface(ux, uy, uz, wts, spec)
-    v = z - _bilinear(surf, spec, x, y)
+    surf = _surface(ux, uy, uz, wts, spec, cells)
+    v = _residuals(surf, spec, x, y, z)
     if p.refine == 0:
         ground = v <= (p.tolerance if p.tolerance is not None else g + p.w)
     else:  # seed of the densification: the ground band, at least the tolerance above the surface
         ground = v <= max(g + p.w, p.refine_tolerance)
-    weights = kp_weights(v, g, p.w, p.a, p.b)
+    weights = kp_weights_fast(v, g, p.w, p.a, p.b)
     if p.refine:
         ground = densify(x, y, z, ground, usable, p, progress)
     prog.update(1.0, "ground filter done")

@@ -15,7 +15,7 @@ from ..io.raster import write_geotiff
 from ..progress import SubProgress, as_progress, check_cancel
 from ..report.plots import write_hillshade_png
 from ..tin import interpolate_tin
-from .filter import KrausPfeifer, kraus_pfeifer
+from .filter import KrausPfeifer, kraus_pfeifer, low_points
 from .texture import _standardise, kmeans, pca_select, texture_descriptors
 
 
@@ -37,8 +37,9 @@ def parse_range(text, param):
 _SWEEP = {}
 
 
-def _sweep_init(x, y, z, spec, base):
-    _SWEEP.update(x=x, y=y, z=z, spec=spec, base=base)
+def _sweep_init(x, y, z, spec, base, low=None):
+    _SWEEP.update(x=x, y=y, z=z, spec=spec, base=base,
+                  low=low_points(x, y, z, base.low) if low is None else low)
 
 
 def _sweep_one(gw):
@@ -47,7 +48,7 @@ def _sweep_one(gw):
     g, w = gw
     x, y, z, spec = _SWEEP["x"], _SWEEP["y"], _SWEEP["z"], _SWEEP["spec"]
     try:
-        ground, _ = kraus_pfeifer(x, y, z, replace(_SWEEP["base"], g=g, w=w))
+        ground, _ = kraus_pfeifer(x, y, z, replace(_SWEEP["base"], g=g, w=w), low=_SWEEP["low"])
     except InputError:
         ground = np.zeros(x.size, bool)
     if ground.sum() >= 3:  # the same DTM as `ground -dtm` and `chm -dtm kp`: linear TIN
@@ -234,15 +235,16 @@ def _sweep(pts, spec, base, combos, workers, prog) -> list:
 
     workers = workers or int(os.environ.get("LIDARTREES_WORKERS", 0)) or os.cpu_count() or 1
     results = []
+    low = low_points(pts.x, pts.y, pts.z, base.low)  # the same for every (g, w)
     if workers <= 1:
-        _sweep_init(pts.x, pts.y, pts.z, spec, base)
+        _sweep_init(pts.x, pts.y, pts.z, spec, base, low)
         for i, c in enumerate(combos):
             check_cancel(prog)
             results.append(_sweep_one(c))
             prog.update((i + 1) / len(combos), f"g={c[0]} w={c[1]}")
         return results
     with ProcessPoolExecutor(workers, initializer=_sweep_init,
-                             initargs=(pts.x, pts.y, pts.z, spec, base)) as ex:
+                             initargs=(pts.x, pts.y, pts.z, spec, base, low)) as ex:
         futs = [ex.submit(_sweep_one, c) for c in combos]
         for i, f in enumerate(futs):
             while True:
