@@ -140,11 +140,12 @@ def compare(input, output, **kw):
 
 
 def ground(input, output, **kw):
-    from ..ground.chain import ground_file
+    from ..ground.tiled import ground_run
 
-    return ground_file(input, output, dtm_out=kw.get("dtm_out"), res=kw.get("res") or "auto",
-                       params=_kp_params(kw), read=_read(kw), out=_out(kw),
-                       reclassify=bool(kw.get("reclassify")), progress=kw.get("progress"))
+    return ground_run(input, output, dtm_out=kw.get("dtm_out"), res=kw.get("res") or "auto",
+                      params=_kp_params(kw), read=_read(kw), out=_out(kw),
+                      reclassify=bool(kw.get("reclassify")), tiling=_tiling(kw),
+                      progress=kw.get("progress"))
 
 
 def dtm_quality(input, outdir, **kw):

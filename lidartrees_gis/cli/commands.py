@@ -305,15 +305,21 @@ COMMANDS = {
     "ground": Command(
         "ground", "Ground", "Ground points by Kraus & Pfeifer hierarchical robust interpolation "
         "(Leite et al.) and TIN densification, classified LAS/LAZ and DTM",
-        (INPUT, Param("output", "output", "Output classified LAS/LAZ (ground = class 2)"),
-         Param("dtm_out", "output", "Also write the DTM GeoTIFF (linear TIN of the ground points)",
-               flag="-dtm_out", aliases=("-dtm",)),
+        (Param("input", "input", INPUT.help + "; or a folder, glob or .vpc of point files "
+               "(each file classified with a buffer of its neighbours' points)"),
+         Param("output", "output", "Output classified LAS/LAZ (ground = class 2); for several "
+               "input files, a folder that gets one classified file per input, same name"),
+         Param("dtm_out", "output", "Also write the DTM GeoTIFF (linear TIN of the ground points; "
+               "one seamless mosaic over every input file)", flag="-dtm_out", aliases=("-dtm",)),
          Param("res", "res", "DTM cell size, m, or auto = sqrt(1/n) (Leite et al.)", flag="-tr",
                aliases=("--resolution",), default="auto", unit="m"),
          *KP_PARAMS,
          Param("reclassify", "bool", "Also give the filter's decision to points of other classes "
                "(water, buildings...); by default only classes 0, 1, 2 change", flag="-reclassify",
                default=False, advanced=True),
+         Param("buffer", "float", "Buffer of neighbouring files' points around each file (default "
+               "30 m)", flag="-buffer", advanced=True, unit="m"),
+         *(p for p in TILES if p.name in ("workers", "scheduler", "on_error")),
          *READ_GEO, CO, OVERWRITE), "ground", outputs=("output", "dtm_out")),
     "dtm-quality": Command(
         "dtm-quality", "Ground", "DTM quality sweep (Leite et al.): Kraus & Pfeifer (g, w) grid, "

@@ -187,13 +187,21 @@ def _slope(dtm, res):
     return np.hypot(g[0], g[1])
 
 
-def densify(x, y, z, ground, usable, params: KrausPfeifer, progress=None):
-    """Densification passes against the TIN of the current ground points (stage 2)."""
+#: triangles of the densification TIN with a wider circumcircle (m) are not used (cells there
+#: take the nearest ground point): the slivers along the hull joined points far apart, so a
+#: tile's hull (and its ground near the area's edge) differed from the whole area's
+DENSIFY_RADIUS = 20.0
+
+
+def densify(x, y, z, ground, usable, params: KrausPfeifer, progress=None, res=None,
+            extent=None):
+    """Densification passes against the TIN of the current ground points (stage 2), sampled
+    on a grid of ``res`` metres (default :func:`refine_cell` of the points)."""
     from ..tin import interpolate_tin
 
     p = params
-    res = refine_cell(x, y)
-    spec = GridSpec.from_bounds(x.min(), y.min(), x.max(), y.max(), res)
+    res = res or refine_cell(x, y)
+    spec = GridSpec.from_bounds(*(extent or (x.min(), y.min(), x.max(), y.max())), res)
     for _ in range(int(p.refine)):
         check_cancel(progress)
         seed = ground & usable
@@ -201,7 +209,7 @@ def densify(x, y, z, ground, usable, params: KrausPfeifer, progress=None):
             seed = lowest_per_cell(x, y, z, seed, p.tin_cell)
         if seed.sum() < 3:
             break
-        dtm = interpolate_tin(x[seed], y[seed], z[seed], spec, max_radius=np.inf)
+        dtm = interpolate_tin(x[seed], y[seed], z[seed], spec, max_radius=DENSIFY_RADIUS)
         slope = _bilinear(_slope(dtm, res), spec, x, y)
         v = _residuals(dtm, spec, x, y, z)
         new = (v <= p.refine_tolerance + p.slope * slope) & (v >= -1.0 - p.slope * slope)
@@ -211,7 +219,8 @@ def densify(x, y, z, ground, usable, params: KrausPfeifer, progress=None):
     return ground
 
 
-def kraus_pfeifer(x, y, z, params: KrausPfeifer | None = None, progress=None, low=None):
+def kraus_pfeifer(x, y, z, params: KrausPfeifer | None = None, progress=None, low=None,
+                  refine_res=None, extent=None):
     """Ground filter: hierarchical robust interpolation, then densification (see module doc).
 
     Parameters
@@ -221,6 +230,9 @@ def kraus_pfeifer(x, y, z, params: KrausPfeifer | None = None, progress=None, lo
     low : (N,) ndarray of bool, optional
         The isolated low points (:func:`low_points` with ``params.low``), when the caller has
         them already (a sweep over g and w computes them once).
+    refine_res : float, optional
+        Cell of the densification's DTM; default :func:`refine_cell` of the points (a tile
+        takes its area's, so that every tile samples the same grid).
 
     Returns
     -------
@@ -234,7 +246,11 @@ def kraus_pfeifer(x, y, z, params: KrausPfeifer | None = None, progress=None, lo
         raise InputError("ground filter: no points")
     prog = as_progress(progress)
     b = (x.min(), y.min(), x.max(), y.max())
-    for res in (p.cell, refine_cell(x, y)):
+    if extent is not None:  # the grids' extent, holding every point
+        b = (min(b[0], extent[0]), min(b[1], extent[1]), max(b[2], extent[2]),
+             max(b[3], extent[3]))
+    refine_res = refine_res or refine_cell(x, y)
+    for res in (p.cell, refine_res):
         check_sparse((b[2] - b[0] + res) * (b[3] - b[1] + res) / res ** 2, x.size, b, res,
                      "ground filter", limit=1000)  # ALS has < 20 cells of 1.5 m per point
     usable = ~(low_points(x, y, z, p.low) if low is None else np.asarray(low, bool))
@@ -247,7 +263,8 @@ def kraus_pfeifer(x, y, z, params: KrausPfeifer | None = None, progress=None, lo
     step = 0
     g = p.g
     for lev in range(levels):
-        spec = GridSpec.from_bounds(ux.min(), uy.min(), ux.max(), uy.max(),
+        spec = GridSpec.from_bounds(*(b if extent is not None else
+                                      (ux.min(), uy.min(), ux.max(), uy.max())),
                                     p.cell * 2 ** (levels - 1 - lev))
         cells = _level_cells(ux, uy, spec)
         for it in range(int(p.iterations)):
@@ -270,7 +287,8 @@ def kraus_pfeifer(x, y, z, params: KrausPfeifer | None = None, progress=None, lo
         ground = v <= max(g + p.w, p.refine_tolerance)
     weights = kp_weights_fast(v, g, p.w, p.a, p.b)
     if p.refine:
-        ground = densify(x, y, z, ground, usable, p, progress)
+        ground = densify(x, y, z, ground, usable, p, progress, refine_res,
+                         b if extent is not None else None)
     prog.update(1.0, "ground filter done")
     return ground, weights
 

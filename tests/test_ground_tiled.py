@@ -1,0 +1,113 @@
+"""Issue 25: ``ground`` over a folder of files, each with a buffer of its neighbours' points, on
+the catalog runner: the same classes as the files merged into one, a seamless DTM mosaic, one
+classified copy per file, and the output rules (no overwrite, no half-written outputs)."""
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from lidartrees_gis.catalog.catalog import TilingOptions
+from lidartrees_gis.errors import InputError, LidarTreesError, OutputExistsError
+from lidartrees_gis.ground.tiled import ground_run as ground_file
+from lidartrees_gis.io.output import OutputOptions
+
+from _paths import DATA
+
+laspy = pytest.importorskip("laspy")
+BCTS = [DATA / "lasR_bcts" / f"bcts_{i}.laz" for i in (1, 2)]
+pytestmark = pytest.mark.skipif(not all(f.exists() for f in BCTS), reason="shared data missing")
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    """Two adjacent bcts tiles as a folder and merged into one file, both classified."""
+    d = tmp_path_factory.mktemp("ground_tiled")
+    folder = d / "in"
+    folder.mkdir()
+    las = [laspy.read(f) for f in BCTS]
+    for f, la in zip(BCTS, las):
+        (folder / f.name).write_bytes(f.read_bytes())
+    merged = laspy.LasData(las[0].header)
+    merged.points = laspy.ScaleAwarePointRecord(
+        np.concatenate([la.points.array for la in las]), las[0].header.point_format,
+        las[0].header.scales, las[0].header.offsets)
+    merged.write(d / "merged.laz")
+    one = ground_file(d / "merged.laz", d / "merged_g.laz", dtm_out=d / "merged_dtm.tif", res=1.0,
+                      tiling=TilingOptions(workers=1))
+    many = ground_file(folder, d / "out", dtm_out=d / "tiles_dtm.tif", res=1.0,
+                       tiling=TilingOptions(workers=1))
+    return d, one, many, [len(la.points) for la in las]
+
+
+def test_folder_gives_the_classes_of_the_merged_file(runs):
+    d, one, many, counts = runs
+    assert many["files"] == 2 and many["points"] == one["points"] == sum(counts)
+    whole = np.asarray(laspy.read(d / "merged_g.laz").classification)
+    parts = np.concatenate([np.asarray(laspy.read(d / "out" / f.name).classification) for f in BCTS])
+    assert whole.size == parts.size
+    differ = int((np.asarray(whole) != np.asarray(parts)).sum())
+    assert 0.2 < (np.asarray(parts) == 2).mean() < 0.6
+    assert differ <= parts.size // 100_000  # 1.36 M points: at most 13 classified otherwise
+    assert abs(many["ground"] - one["ground"]) <= parts.size // 100_000
+
+
+def test_dtm_mosaic_is_seamless_and_matches_the_merged_file(runs):
+    import rasterio
+
+    d, *_ = runs
+    with rasterio.open(d / "merged_dtm.tif") as a, rasterio.open(d / "tiles_dtm.tif") as b:
+        assert a.transform == b.transform and a.shape == b.shape
+        assert b.crs.to_epsg() == 3005
+        da, db = a.read(1, masked=True), b.read(1, masked=True)
+    both = ~da.mask & ~db.mask
+    assert both.mean() > 0.8
+    diff = np.abs(da.data - db.data)[both]
+    assert np.percentile(diff, 99.9) < 0.01 and diff.max() < 0.5
+    # the files' seam (y = 629400) holds no step: rows either side differ as elsewhere
+    assert np.nanmax(np.abs(np.diff(db.filled(np.nan), axis=0))) < 5.0
+
+
+def test_one_classified_copy_per_file_with_every_attribute(runs):
+    d, *_ = runs
+    for f in BCTS:
+        a, b = laspy.read(f), laspy.read(d / "out" / f.name)
+        assert len(a.points) == len(b.points)
+        np.testing.assert_array_equal(a.X, b.X)
+        np.testing.assert_array_equal(a.intensity, b.intensity)
+        assert b.header.parse_crs().to_epsg() == 3005
+    assert not list((d / "out").glob(".*part*"))
+
+
+def test_existing_outputs_are_kept_without_overwrite(runs, tmp_path):
+    d, *_ = runs
+    before = {p.name: p.stat().st_mtime_ns for p in (d / "out").iterdir()}
+    with pytest.raises(OutputExistsError):
+        ground_file(d / "in", d / "out", tiling=TilingOptions(workers=1))
+    assert {p.name: p.stat().st_mtime_ns for p in (d / "out").iterdir()} == before
+    with pytest.raises(InputError, match="give a folder"):
+        ground_file(d / "in", tmp_path / "x.laz", tiling=TilingOptions(workers=1))
+
+
+def test_a_bad_file_is_named_and_nothing_is_written(tmp_path):
+    folder = tmp_path / "in"
+    folder.mkdir()
+    (folder / BCTS[0].name).write_bytes(BCTS[0].read_bytes())
+    raw = BCTS[1].read_bytes()
+    (folder / "broken.laz").write_bytes(raw[: len(raw) // 3])  # truncated: the chunks are gone
+    with pytest.raises(LidarTreesError, match="broken.laz"):
+        ground_file(folder, tmp_path / "out", tiling=TilingOptions(workers=1),
+                    out=OutputOptions())
+    assert not (tmp_path / "out").exists() or not list((tmp_path / "out").iterdir())
+
+
+def test_cli_folder_on_two_workers(runs, tmp_path):
+    d, one, *_ = runs
+    r = subprocess.run([sys.executable, "-m", "lidartrees_gis.cli", "ground", str(d / "in"),
+                        str(tmp_path / "o"), "-workers", "2", "-q"],
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    lines = dict(ln.split(": ", 1) for ln in r.stdout.splitlines() if ": " in ln)
+    assert lines["files"] == "2" and lines["buffer"] == "30.0"
+    assert abs(int(lines["ground"]) - one["ground"]) <= 13
+    assert sorted(p.name for p in (tmp_path / "o").iterdir()) == sorted(f.name for f in BCTS)
