@@ -4,9 +4,11 @@ lidR's Megaplot laid side by side as separate files, as the issue measured), on 
 process, pinned to one core) and on a local Dask cluster of two; wall time and peak RSS of the
 largest process.
 Also tiled = untiled on the four lasR_bcts tiles. When Rscript with lasR and/or lidR is on the
-PATH their chains (:data:`R_LASR`, :data:`R_LIDR`) run on the same files in the same run, one
-thread each, and the ratios are written beside ours (skipped otherwise: lasR and lidR are not in
-Debian and CRAN is unreachable from this machine, so those scripts have not run here).
+PATH (with the library ../shared/peers/build.sh makes: lasR 0.21.1, lidR 4.1.2, found without
+setting R_LIBS) their chains (:data:`R_LASR`, :data:`R_LIDR`) run on the same files in the same
+run, pinned to one core and one thread, at 0.5 m and (lasR) at our default cell too; ours runs
+with its defaults and at -tr 0.5, and the ratios are written beside.
+Sizes not run keep their earlier results in the output file.
 
 Each configuration runs ``--repeat`` times (alternating one and two workers) and the median is
 reported: this machine's times vary by 10-15 % from one minute to the next.
@@ -58,8 +60,9 @@ def make_copies(n_points: float, out: Path) -> list:
     return files
 
 
-def run_chain(folder: Path, out: Path, workers: int) -> dict:
-    """One chain in a fresh process: wall time, trees, peak RSS of the largest process."""
+def run_chain(folder: Path, out: Path, workers: int, res=None) -> dict:
+    """One chain in a fresh process: wall time, trees, peak RSS of the largest process;
+    ``res``: the cell size (default: ours, auto)."""
     # one worker = one core, as the issue measured (one thread): the process is pinned to a
     # single CPU, so the parallel LAZ decompressor cannot borrow the second core
     code = ("import sys, json, time, os; sys.path.insert(0, %r)\n"
@@ -67,15 +70,17 @@ def run_chain(folder: Path, out: Path, workers: int) -> dict:
             + "from lidartrees_gis.als.chain import trees_run\n"
             "from lidartrees_gis.catalog.catalog import TilingOptions\n"
             "from lidartrees_gis.io.output import OutputOptions\n"
+            "from lidartrees_gis.als.surfaces import SurfaceOptions\n"
             "t = time.perf_counter()\n"
             "r = trees_run(%r, %r, tiling=TilingOptions(workers=%d), "
-            "out=OutputOptions(overwrite=True))\n"
+            "out=OutputOptions(overwrite=True), surface=SurfaceOptions(res=%r))\n"
             "import resource\n"
             "s = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024\n"
             "c = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024\n"
             "print(json.dumps({'seconds': time.perf_counter() - t, 'trees': r['trees'], "
-            "'tiles': r['tiles'], 'points': r['points'], 'peak_rss_mb_main': s, "
-            "'peak_rss_mb_worker': c}))\n") % (str(ROOT), str(folder), str(out), workers)
+            "'tiles': r['tiles'], 'points': r['points'], 'res': r['res'], 'peak_rss_mb_main': s, "
+            "'peak_rss_mb_worker': c}))\n") % (str(ROOT), str(folder), str(out), workers,
+                                               res or "auto")
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     if p.returncode != 0:
         return {"error": p.stderr.strip().splitlines()[-1] if p.stderr else f"exit {p.returncode}"}
@@ -120,6 +125,18 @@ cat("SECONDS", as.numeric(difftime(Sys.time(), t0, units = "secs")), "\n")
 """
 
 
+def r_env() -> dict:
+    """Environment for Rscript: the peers' library of ../shared/peers/build.sh (lasR 0.21.1,
+    lidR 4.1.2) when R_LIBS is not set."""
+    import os
+
+    env = dict(os.environ)
+    lib = Path.home() / ".cache" / "lidartrees-peers" / "rlib"
+    if "R_LIBS" not in env and lib.is_dir():
+        env["R_LIBS"] = str(lib)
+    return env
+
+
 def r_packages() -> list:
     """The R packages of the comparison that this machine has (``lasR``, ``lidR``)."""
     rs = shutil.which("Rscript")
@@ -128,7 +145,7 @@ def r_packages() -> list:
     have = []
     for pkg in ("lasR", "lidR"):
         p = subprocess.run([rs, "-e", f"quit(status = if (requireNamespace('{pkg}', quietly = TRUE)) 0 else 1)"],
-                           capture_output=True)
+                           capture_output=True, env=r_env())
         if p.returncode == 0:
             have.append(pkg)
     return have
@@ -142,8 +159,9 @@ def run_r_chain(pkg: str, folder: Path, res: float = 0.5) -> dict:
     script.write_text(R_LASR if pkg == "lasR" else R_LIDR)
     before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
     t = time.perf_counter()
-    p = subprocess.run([shutil.which("Rscript"), str(script), str(folder), str(res)],
-                       capture_output=True, text=True)
+    # one core, as ours: lasR and lidR are also told to use one thread
+    p = subprocess.run(["taskset", "-c", "0", shutil.which("Rscript"), str(script), str(folder),
+                        str(res)], capture_output=True, text=True, env=r_env())
     wall = time.perf_counter() - t
     after = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
     secs = [ln.split()[1] for ln in p.stdout.splitlines() if ln.startswith("SECONDS")]
@@ -202,11 +220,15 @@ def main():
     rss_sizes = [float(s) for s in a.rss_sizes.split(",") if s.strip()]
     r_pkgs = r_packages()
     res = {"reported_in_issue": REPORTED,
-           "R": (f"{shutil.which('Rscript')}: {', '.join(r_pkgs) or 'neither lasR nor lidR'}"
+           "R": (f"{shutil.which('Rscript')} (R_LIBS {r_env().get('R_LIBS', '')}): "
+                 f"{', '.join(r_pkgs) or 'neither lasR nor lidR'}"
                  if shutil.which("Rscript") else "Rscript not found: lasR/lidR skipped"),
            "chain": {}}
-    if not sizes and Path(a.out).exists():
-        res = json.loads(Path(a.out).read_text())
+    if Path(a.out).exists():  # the sizes and sections not run now keep their results
+        old = json.loads(Path(a.out).read_text())
+        old.update({k: v for k, v in res.items() if k != "chain"})
+        old.setdefault("chain", {})
+        res = old
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
         for m in rss_sizes:
@@ -236,11 +258,23 @@ def main():
             r1, r2 = row["workers_1"], row["workers_2"]
             if "seconds" in r1 and "seconds" in r2:
                 row["two_workers_over_one"] = round(r2["seconds"] / r1["seconds"], 3)
+            # ours at the peers' cell size (0.5 m), one core
+            print(f"{m:g} M points, 1 worker, -tr 0.5", file=sys.stderr, flush=True)
+            row["workers_1_res_0.5"] = _median_run([run_chain(folder, tmp / "out.gpkg", 1, 0.5)
+                                                    for _ in range(max(1, a.repeat - 1))])
+            ours_res = r1.get("res")
             for pkg in r_pkgs:  # the peers' chains on the same files, one thread
-                print(f"{m:g} M points, {pkg}", file=sys.stderr, flush=True)
-                row[pkg] = run_r_chain(pkg, folder)
-                if "seconds" in row[pkg] and "seconds" in r1:
-                    row[f"one_core_over_{pkg}"] = round(r1["seconds"] / row[pkg]["seconds"], 3)
+                for rr in sorted({0.5, *([ours_res] if pkg == "lasR" and ours_res else [])}):
+                    print(f"{m:g} M points, {pkg} at {rr} m", file=sys.stderr, flush=True)
+                    key = pkg if rr == 0.5 else f"{pkg}_res_{rr:g}"
+                    row[key] = run_r_chain(pkg, folder, rr)
+                    ours_row = row["workers_1_res_0.5"] if rr == 0.5 else r1
+                    if "seconds" in row[key] and "seconds" in ours_row:
+                        row[f"one_core_over_{key}_same_cell"] = round(
+                            ours_row["seconds"] / row[key]["seconds"], 3)
+                if "seconds" in row.get(pkg, {}) and "seconds" in r1:
+                    row[f"one_core_defaults_over_{pkg}_0.5"] = round(
+                        r1["seconds"] / row[pkg]["seconds"], 3)
             res["chain"][f"{m:g}M"] = row
             print(json.dumps(row), file=sys.stderr, flush=True)
             shutil.rmtree(folder)

@@ -10,9 +10,17 @@
    DTMs on real forest files against the vendor's ground (share of 1 m cells more than 1 m off);
 3. seed 003 on the demo stand (eucalyptus): the g = -w filters' share of the true ground, and
    ``dtm-quality`` (roles, recommended (g, w));
-4. points/s on the lasR_bcts tiles and the wall time of ``dtm-quality`` on bcts_1.
+4. points/s on the lasR_bcts tiles (one core, filter alone) and the wall time of
+   ``dtm-quality`` on bcts_1;
+5. side by side on one core (``peers_one_core``): our filter and whole ``ground`` command,
+   the ``cloth-simulation-filter`` package and lasR's ``classify_with_csf`` (when Rscript finds
+   lasR, e.g. built by ../shared/peers/build.sh), time and agreement on the bcts tiles, ISPRS
+   dev total error;
+6. ``ground FOLDER OUTDIR`` on 64 M points (copies of the bcts tiles), two workers: time and
+   peak RSS (``ground_folder_two_workers``).
 
 Usage: python benchmarks/bench_ground.py [--out benchmarks/results/ground.json] [--quick]
+       [--folder-points 64] [--only peers,folder,speed]  (--only adds sections to the results)
 """
 from __future__ import annotations
 
@@ -81,6 +89,213 @@ def smrf_ground(path):
     return pipe.arrays[0]["Classification"] == 2
 
 
+#: lasR's CSF stage on one file, one thread: classified copy written (point order kept)
+R_LASR_CSF = r"""
+args <- commandArgs(trailingOnly = TRUE)
+suppressMessages(library(lasR))
+try(set_parallel_strategy(sequential()), silent = TRUE)
+t0 <- Sys.time()
+ans <- exec(classify_with_csf() + write_las(args[2]), on = args[1])
+cat("SECONDS", as.numeric(difftime(Sys.time(), t0, units = "secs")), "\n")
+"""
+
+
+def r_env() -> dict:
+    """Environment for Rscript: the peers' library of ../shared/peers/build.sh when R_LIBS is
+    not set."""
+    import os
+
+    env = dict(os.environ)
+    lib = Path.home() / ".cache" / "lidartrees-peers" / "rlib"
+    if "R_LIBS" not in env and lib.is_dir():
+        env["R_LIBS"] = str(lib)
+    return env
+
+
+def have_lasr() -> bool:
+    import shutil
+    import subprocess
+
+    rs = shutil.which("Rscript")
+    return bool(rs) and subprocess.run(
+        [rs, "-e", "quit(status = if (requireNamespace('lasR', quietly = TRUE)) 0 else 1)"],
+        capture_output=True, env=r_env()).returncode == 0
+
+
+def lasr_csf(path: Path, tmp: Path):
+    """lasR's classify_with_csf on ``path`` (its classes reset to 1 first, so no vendor ground
+    survives): (seconds as lasR measures them, ground mask in the file's point order)."""
+    import shutil
+    import subprocess
+
+    import laspy
+
+    las = laspy.read(path)
+    las.classification = np.ones(len(las.points), np.uint8)
+    src, out = tmp / f"{path.stem}_unclassified.laz", tmp / f"{path.stem}_csf.laz"
+    las.write(src)
+    script = tmp / "csf.R"
+    script.write_text(R_LASR_CSF)
+    p = subprocess.run(["taskset", "-c", "0", shutil.which("Rscript"), str(script), str(src),
+                        str(out)], capture_output=True, text=True, env=r_env())
+    secs = [ln.split()[1] for ln in p.stdout.splitlines() if ln.startswith("SECONDS")]
+    if p.returncode != 0 or not secs:
+        raise RuntimeError((p.stderr or p.stdout).strip().splitlines()[-1])
+    got = laspy.read(out)
+    if len(got.points) != len(las.points) or not np.array_equal(np.asarray(got.X),
+                                                                 np.asarray(las.X)):
+        raise RuntimeError("lasR wrote the points in another order")
+    return float(secs[0]), np.asarray(got.classification) == 2
+
+
+def ground_command(path: Path, tmp: Path) -> float:
+    """Our whole ``ground`` on one file in this process (read, filter, write the LAZ): seconds."""
+    from lidartrees_gis.catalog.catalog import TilingOptions
+    from lidartrees_gis.ground.tiled import ground_run
+    from lidartrees_gis.io.output import OutputOptions
+
+    t = time.perf_counter()
+    ground_run(path, tmp / f"{path.stem}_ours.laz", tiling=TilingOptions(workers=1),
+               out=OutputOptions(overwrite=True))
+    return time.perf_counter() - t
+
+
+def peers_side_by_side(pts) -> dict:
+    """One core each, the same files: ours (filter alone and the whole command), the
+    ``cloth-simulation-filter`` package and lasR's CSF stage; time on the four bcts tiles with
+    agreement with the vendor's ground (kappa), total error on the ISPRS dev samples."""
+    import os
+
+    os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})
+    lasr = have_lasr()
+    out = {"lasR": "lasR 0.21.1 (../shared/peers/build.sh)" if lasr else "not found",
+           "cloth_simulation_filter": "installed"}
+    try:
+        import CSF  # noqa: F401
+    except ImportError:
+        out["cloth_simulation_filter"] = "not installed"
+    rows = {}
+    with tempfile.TemporaryDirectory() as d:
+        tmp = Path(d)
+        for i in (1, 2, 3, 4):
+            f = DATA / "lasR_bcts" / f"bcts_{i}.laz"
+            p = open_points(f).read_all()
+            ref = p.classification == 2
+            row = {"points": len(p)}
+            t = time.perf_counter()
+            g = ours(p)
+            row["ours_filter_s"] = round(time.perf_counter() - t, 2)
+            row["ours_command_s"] = round(ground_command(f, tmp), 2)
+            row["ours_kappa_vs_vendor"] = round(filter_errors(g, ref)["kappa"], 3)
+            if out["cloth_simulation_filter"] == "installed":
+                t = time.perf_counter()
+                g = csf_ground(p.x, p.y, p.z, 0.5, 1)  # lasR's defaults: 0.5 m cloth
+                row["csf_package_s"] = round(time.perf_counter() - t, 2)
+                row["csf_package_kappa_vs_vendor"] = round(filter_errors(g, ref)["kappa"], 3)
+            if lasr:
+                secs, g = lasr_csf(f, tmp)
+                row["lasR_csf_s"] = round(secs, 2)
+                row["lasR_csf_kappa_vs_vendor"] = round(filter_errors(g, ref)["kappa"], 3)
+                row["ours_command_over_lasR_csf"] = round(row["ours_command_s"] / secs, 3)
+            rows[f.name] = row
+        out["bcts"] = rows
+        tot = {"ours": [], "csf_package": [], "lasR_csf": []}
+        for s in SAMPLES:
+            p = pts[s]
+            ref = p.classification == 2
+            tot["ours"].append(filter_errors(ours(p), ref)["total"])
+            if out["cloth_simulation_filter"] == "installed":
+                tot["csf_package"].append(filter_errors(csf_ground(p.x, p.y, p.z, 0.5, 1),
+                                                        ref)["total"])
+            if lasr:
+                tot["lasR_csf"].append(filter_errors(
+                    lasr_csf(DATA / "isprs_filtertest_dev" / f"{s}-utm.laz", tmp)[1], ref)["total"])
+        out["isprs_dev_mean_total"] = {k: round(float(np.mean(v)), 2) for k, v in tot.items() if v}
+    os.sched_setaffinity(0, set(range(os.cpu_count())))
+    return out
+
+
+def folder_memory(points_m: float) -> dict:
+    """``ground FOLDER OUTDIR`` on copies of the four bcts tiles (separate LAZ files, shifted
+    side by side) up to ``points_m`` million points, two workers: wall time and the peak RSS of
+    the largest process and of all together (sampled every 0.2 s)."""
+    import shutil
+    import subprocess
+    import threading
+
+    import laspy
+    import psutil
+
+    with tempfile.TemporaryDirectory() as d:
+        folder, outdir = Path(d) / "in", Path(d) / "out"
+        folder.mkdir()
+        tiles = [DATA / "lasR_bcts" / f"bcts_{i}.laz" for i in (1, 2, 3, 4)]
+        n, k = 0, 0
+        while n < points_m * 1e6:
+            for f in tiles:
+                las = laspy.read(f)
+                las.X = las.X + int(round(250.0 * k / las.header.scales[0]))
+                las.write(folder / f"c{k:03d}_{f.name}")
+                n += len(las.points)
+            k += 1
+        proc = subprocess.Popen([sys.executable, "-m", "lidartrees_gis.cli", "ground", str(folder),
+                                 str(outdir), "-workers", "2", "-q"], stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, text=True, cwd=str(ROOT))
+        peak = {"largest": 0, "sum": 0}
+        stop = threading.Event()
+
+        def sample():
+            root = psutil.Process(proc.pid)
+            while not stop.is_set():
+                try:
+                    rss = [q.memory_info().rss for q in [root, *root.children(recursive=True)]]
+                except psutil.Error:
+                    rss = []
+                if rss:
+                    peak["largest"] = max(peak["largest"], max(rss))
+                    peak["sum"] = max(peak["sum"], sum(rss))
+                time.sleep(0.2)
+
+        th = threading.Thread(target=sample, daemon=True)
+        t = time.perf_counter()
+        th.start()
+        so, se = proc.communicate()
+        wall = time.perf_counter() - t
+        stop.set()
+        th.join()
+        if proc.returncode != 0:
+            return {"error": se.strip().splitlines()[-1] if se.strip() else "failed"}
+        lines = dict(ln.split(": ", 1) for ln in so.splitlines() if ": " in ln)
+        shutil.rmtree(folder)
+        return {"points": n, "files": 4 * k, "seconds": round(wall, 1),
+                "points_per_s": round(n / wall), "ground": int(lines.get("ground", 0)),
+                "peak_rss_mb_largest_process": round(peak["largest"] / 2 ** 20, 1),
+                "peak_rss_mb_all_processes": round(peak["sum"] / 2 ** 20, 1),
+                "largest_file_points": max(laspy.open(f).header.point_count for f in tiles)}
+
+
+def speed_rows() -> list:
+    """The filter alone on each bcts tile, one core, kernels warm: the median of 3 runs."""
+    import os
+
+    os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})
+    speed = []
+    for i in (1, 2, 3, 4):
+        f = DATA / "lasR_bcts" / f"bcts_{i}.laz"
+        p = open_points(f).read_all()
+        kraus_pfeifer(p.x[:2000], p.y[:2000], p.z[:2000])  # compiled kernels loaded
+        runs = []
+        for _ in range(3):
+            t = time.perf_counter()
+            kraus_pfeifer(p.x, p.y, p.z)
+            runs.append(time.perf_counter() - t)
+        dt = float(np.median(runs))
+        speed.append({"file": f.name, "points": len(p), "seconds": round(dt, 2),
+                      "points_per_s": round(len(p) / dt)})
+    os.sched_setaffinity(0, set(range(os.cpu_count())))
+    return speed
+
+
 def isprs(pts):
     table, means = {}, {}
     methods = {
@@ -127,7 +342,27 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "ground.json"))
     ap.add_argument("--quick", action="store_true", help="skip the sweep and dtm-quality timing")
+    ap.add_argument("--folder-points", type=float, default=64.0,
+                    help="millions of points of the folder run (peak memory); 0 skips it")
+    ap.add_argument("--only", default="", help="comma list of sections to run and add to the "
+                    "existing results: peers, folder, speed")
     a = ap.parse_args()
+    only = {x.strip() for x in a.only.split(",") if x.strip()}
+    if only:
+        res = json.loads(Path(a.out).read_text()) if Path(a.out).exists() else {}
+        pts = {s: open_points(DATA / "isprs_filtertest_dev" / f"{s}-utm.laz").read_all()
+               for s in SAMPLES}
+        if "peers" in only:
+            res["peers_one_core"] = peers_side_by_side(pts)
+            print(json.dumps(res["peers_one_core"], indent=1), flush=True)
+        if "folder" in only and a.folder_points:
+            res["ground_folder_two_workers"] = folder_memory(a.folder_points)
+            print(json.dumps(res["ground_folder_two_workers"], indent=1), flush=True)
+        if "speed" in only:
+            res["points_per_s"] = speed_rows()
+            print(json.dumps(res["points_per_s"], indent=1), flush=True)
+        Path(a.out).write_text(json.dumps(res, indent=2, default=str))
+        return
     res = {"defaults": KrausPfeifer().as_dict(), "published_mean_total": PUBLISHED}
     pts = {s: open_points(DATA / "isprs_filtertest_dev" / f"{s}-utm.laz").read_all()
            for s in SAMPLES}
@@ -210,16 +445,10 @@ def main():
             "ground_points_by_role": {r: sorted({int(x["ground_points"]) for x in rows
                                                  if x["role"] == r}) for r in set(q["roles"].values())}}
 
-    speed = []
-    for i in (1, 2, 3, 4):
-        f = DATA / "lasR_bcts" / f"bcts_{i}.laz"
-        p = open_points(f).read_all()
-        t = time.perf_counter()
-        kraus_pfeifer(p.x, p.y, p.z)
-        dt = time.perf_counter() - t
-        speed.append({"file": f.name, "points": len(p), "seconds": round(dt, 2),
-                      "points_per_s": round(len(p) / dt)})
-    res["points_per_s"] = speed
+    res["points_per_s"] = speed_rows()
+    res["peers_one_core"] = peers_side_by_side(pts)
+    if not a.quick and a.folder_points:
+        res["ground_folder_two_workers"] = folder_memory(a.folder_points)
     if not a.quick:
         with tempfile.TemporaryDirectory() as d:
             t = time.perf_counter()
