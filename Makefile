@@ -10,6 +10,7 @@ QPIP = $(QVENV)/bin/pip -q --disable-pip-version-check
 $(VENV)/.installed: pyproject.toml
 	test -x $(VENV)/bin/python || $(PYTHON) -m venv $(VENV)
 	$(PIP) install -e ".[test]"
+	$(VENV)/bin/lidartrees --compile  # the numba kernels compiled and cached once (~10-30 s)
 	touch $@
 
 install: $(VENV)/.installed

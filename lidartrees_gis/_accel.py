@@ -28,7 +28,11 @@ def kernels_cached() -> bool:
     import glob
 
     here = os.path.dirname(os.path.abspath(__file__))
-    return bool(glob.glob(os.path.join(here, "__pycache__", "_accel.*.nbi")))
+    places = [os.path.join(here, "__pycache__")]
+    if os.environ.get("NUMBA_CACHE_DIR"):  # numba's cache elsewhere, by the source's path
+        places.append(os.path.join(os.environ["NUMBA_CACHE_DIR"], "**"))
+    places.append(os.path.join(os.path.expanduser("~"), ".cache", "numba", "**"))  # read-only
+    return any(glob.glob(os.path.join(p, "_accel.*.nbi"), recursive=True) for p in places)
 
 
 def _jit(fn):
