@@ -111,3 +111,51 @@ def test_cli_folder_on_two_workers(runs, tmp_path):
     assert lines["files"] == "2" and lines["buffer"] == "30.0"
     assert abs(int(lines["ground"]) - one["ground"]) <= 13
     assert sorted(p.name for p in (tmp_path / "o").iterdir()) == sorted(f.name for f in BCTS)
+
+
+@pytest.fixture(scope="module")
+def small_tiles(tmp_path_factory):
+    """Four 40 x 40 m files cut from bcts_1, as a folder and merged back into one file."""
+    d = tmp_path_factory.mktemp("quality_tiles")
+    las = laspy.read(BCTS[0])
+    x0, y0 = float(las.x.min()) + 20, float(las.y.min()) + 20
+    folder = d / "in"
+    folder.mkdir()
+    keep = np.zeros(len(las.points), bool)
+    for i, (ox, oy) in enumerate([(0, 0), (40, 0), (0, 40), (40, 40)]):
+        m = ((las.x >= x0 + ox) & (las.x < x0 + ox + 40) & (las.y >= y0 + oy)
+             & (las.y < y0 + oy + 40))
+        part = laspy.LasData(las.header)
+        part.points = las.points[np.asarray(m)]
+        part.write(folder / f"part_{i}.laz")
+        keep |= np.asarray(m)
+    whole = laspy.LasData(las.header)
+    whole.points = las.points[keep]
+    whole.write(d / "whole.laz")
+    return d
+
+
+def test_dtm_quality_over_a_folder_matches_the_merged_file(small_tiles):
+    import csv
+
+    from lidartrees_gis.ground.quality import dtm_quality_file
+
+    d = small_tiles
+    one = dtm_quality_file(d / "whole.laz", d / "q_one", res=0.5, workers=1)
+    many = dtm_quality_file(d / "in", d / "q_many", res=0.5, workers=1)
+    assert many["dtms"] == one["dtms"] == 77
+    assert many["reference"].startswith("the files' class-2 points")
+    rows_one = list(csv.DictReader(open(one["output"])))
+    rows_many = list(csv.DictReader(open(many["output"])))
+    g1 = np.array([int(r["ground_points"]) for r in rows_one])
+    g2 = np.array([int(r["ground_points"]) for r in rows_many])
+    assert (g1 > 0).sum() >= 50
+    # each (g, w) keeps the same ground points within 0.5 % (the filter's grids follow each
+    # file's box inside the area; the merged file's follow the points)
+    assert np.all(np.abs(g1 - g2) <= 0.005 * np.maximum(g1, 1) + 3)
+    rm1 = np.array([float(r["ref_rmse"] or "nan") for r in rows_one])
+    rm2 = np.array([float(r["ref_rmse"] or "nan") for r in rows_many])
+    both = np.isfinite(rm1) & np.isfinite(rm2) & (g1 >= 1000)  # not a DTM of a few points
+    assert both.sum() >= 40 and np.nanmax(np.abs(rm1[both] - rm2[both])) < 0.05
+    assert (d / "q_many" / "recommended_dtm.tif").exists()
+    assert not list((d / "q_many").glob(".lidartrees-dtms-*")) and not list(d.glob(".lidartrees-dtms-*"))

@@ -324,8 +324,10 @@ COMMANDS = {
     "dtm-quality": Command(
         "dtm-quality", "Ground", "DTM quality sweep (Leite et al.): Kraus & Pfeifer (g, w) grid, "
         "GLCM texture, PCA, k-means",
-        (INPUT, Param("outdir", "outdir", "Output folder (CSV, hillshade PNGs, recommended_dtm.tif)",
-                      required=True),
+        (Param("input", "input", INPUT.help + "; or a folder, glob or .vpc of point files (each "
+               "file filtered with a buffer of its neighbours' points, one DTM over all)"),
+         Param("outdir", "outdir", "Output folder (CSV, hillshade PNGs, recommended_dtm.tif)",
+               required=True),
          Param("g", "str", "g values START:STOP:STEP (Leite et al.: -4:1:0.5)", flag="-g",
                default="-4:1:0.5"),
          Param("w", "str", "w values START:STOP:STEP (Leite et al.: 1:4:0.5)", flag="-w",

@@ -2,13 +2,17 @@
 DTM each, GLCM texture, PCA and k-means, a CSV, hillshades and the recommended DTM."""
 from __future__ import annotations
 
+import contextlib
+import tempfile
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError
-from ..grid import GridSpec, resolve_resolution
+from ..catalog.catalog import Catalog
+from ..catalog.inputs import is_catalog_input
+from ..grid import GridSpec, auto_resolution, check_resolution, resolve_resolution
 from ..io.options import ReadOptions
 from ..io.provenance import raster_tags, repro_report
 from ..io.raster import write_geotiff
@@ -124,17 +128,58 @@ def dtm_quality_file(input, outdir, *, g="-4:1:0.5", w="1:4:0.5", res="auto", pa
     if len(combos) < 3:
         raise InputError("-g/-w: the sweep needs at least 3 combinations for 3 clusters")
     prog = as_progress(progress)
-    src = (read or ReadOptions()).open(input, filtered=False)
-    pts = src.read_all(SubProgress(prog, 0, 0.05))
-    r = resolve_resolution(src, res)
-    spec = GridSpec.from_bounds(pts.x.min(), pts.y.min(), pts.x.max(), pts.y.max(), r, crs=src.crs)
-    ref, ref_source = _reference(reference, pts, spec)
     base = params or KrausPfeifer(refine=0)
-    results = _sweep(pts, spec, base, combos, workers, SubProgress(prog, 0.05, 0.9))
-    footprint = np.zeros(spec.shape, bool)
-    rr, cc = spec.cell_index(pts.x, pts.y)
-    inside = (rr >= 0) & (rr < spec.height) & (cc >= 0) & (cc < spec.width)
-    footprint[rr[inside], cc[inside]] = True
+    read = read or ReadOptions()
+    stack = contextlib.ExitStack()
+    with stack:
+        if is_catalog_input(input) and len(Catalog.open(input, read).files) > 1:
+            # several files: each (g, w) over each file with a buffer, DTMs kept on disk
+            from .quality_area import footprint_and_reference, sweep_area
+
+            src = Catalog.open(input, read)
+            r = (auto_resolution(src.count, src.area)
+                 if isinstance(res, str) and res.strip().lower() == "auto" else
+                 check_resolution(res))
+            spec = GridSpec.from_bounds(*src.extent, r, crs=src.crs)
+            auto = str(reference or "auto").lower() == "auto"
+            footprint, ref, n2 = footprint_and_reference(src, spec, auto)
+            if auto:
+                ref_source = (f"the files' class-2 points ({n2})" if ref is not None
+                              else "none (the files have no class-2 points)")
+            else:
+                ref, ref_source = _reference(reference, None, spec)
+            tmp = Path(stack.enter_context(tempfile.TemporaryDirectory(
+                prefix=".lidartrees-dtms-", dir=_existing_parent(out))))
+            results = sweep_area(src, spec, base, combos, workers, tmp,
+                                 progress=SubProgress(prog, 0.05, 0.9))
+        else:
+            src = read.open(input, filtered=False)
+            pts = src.read_all(SubProgress(prog, 0, 0.05))
+            r = resolve_resolution(src, res)
+            spec = GridSpec.from_bounds(pts.x.min(), pts.y.min(), pts.x.max(), pts.y.max(), r,
+                                        crs=src.crs)
+            ref, ref_source = _reference(reference, pts, spec)
+            results = _sweep(pts, spec, base, combos, workers, SubProgress(prog, 0.05, 0.9))
+            footprint = np.zeros(spec.shape, bool)
+            rr, cc = spec.cell_index(pts.x, pts.y)
+            inside = (rr >= 0) & (rr < spec.height) & (cc >= 0) & (cc < spec.width)
+            footprint[rr[inside], cc[inside]] = True
+            del pts
+        return _analyse(out, csv_path, src, spec, r, base, results, footprint, ref, ref_source,
+                        seed, prog)
+
+
+def _existing_parent(out: Path) -> Path:
+    """The output folder, or the nearest folder above it that exists."""
+    p = out.absolute()
+    while not p.exists():
+        p = p.parent
+    return p
+
+
+def _analyse(out: Path, csv_path: Path, src, spec, r, base, results, footprint, ref, ref_source,
+             seed, prog) -> dict:
+    """Clusters, reference agreement, CSV, hillshades and the recommended DTM of a sweep."""
     c = _clusters(results, seed, footprint)
     agree = [reference_agreement(res_[4], ref) if ref is not None else (np.nan, np.nan, 0.0)
              for res_ in results]
@@ -159,7 +204,7 @@ def dtm_quality_file(input, outdir, *, g="-4:1:0.5", w="1:4:0.5", res="auto", pa
             "pngs": pngs, "dtm": str(dtm_path), "reprojection": repro_report(src)}
 
 
-def _reference(reference, pts, spec):
+def _reference(reference, pts, spec):  # pts: only for "auto"
     """The reference ground on the grid: (array or None, its source)."""
     from ..io.raster import read_raster, resample_to
 

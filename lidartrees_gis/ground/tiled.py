@@ -50,7 +50,7 @@ class GroundJob:
     reclassify: bool = False
 
 
-def _area_refine_res(area: Catalog) -> float:
+def area_refine_res(area: Catalog) -> float:
     """The densification grid of the whole area (:func:`filter.refine_cell` of its density)."""
     dens_cell = np.sqrt(max(area.area, 1.0) / max(area.count, 1))
     return round(min(2.0, max(0.5, float(dens_cell))), 1)
@@ -96,29 +96,55 @@ def _neighbours(area: Catalog, k: int, box):
     return TileSource(sub, box).read_all()
 
 
-def ground_task(f, area: Catalog, job: GroundJob, progress=None) -> dict:
-    """Classify the file ``f`` of ``area`` (with the points of its neighbours within the
-    buffer), write its classified copy and return its counts and DTM piece."""
-    from ..io.lasout import write_classified
-    from .chain import filtered_points, ground_classes
+def classify_buffered(f, area: Catalog, params: KrausPfeifer, buffer: float, refine_res: float,
+                      progress=None):
+    """The ground filter on file ``f`` of ``area`` with its neighbours' points within
+    ``buffer`` metres, on the area's grids: ``(src, pts, own, nb, nb_ground)``, ``own`` the
+    ground mask of the file's points (noise classes never ground), ``nb`` the neighbours'
+    points (or None) and ``nb_ground`` their ground mask."""
+    from .chain import filtered_points
 
     prog = as_progress(progress)
     k = list(area.files).index(f)
     src = area.read.open(f, filtered=False)
-    pts = src.read_all(SubProgress(prog, 0.0, 0.2))
+    pts = src.read_all(SubProgress(prog, 0.0, 0.25))
     use = filtered_points(pts, f)
-    b, e, buf = area.bounds[k], area.extent, job.buffer
-    box = (max(b[0] - buf, e[0]), max(b[1] - buf, e[1]), min(b[2] + buf, e[2]),
-           min(b[3] + buf, e[3]))
+    b, e = area.bounds[k], area.extent
+    box = (max(b[0] - buffer, e[0]), max(b[1] - buffer, e[1]), min(b[2] + buffer, e[2]),
+           min(b[3] + buffer, e[3]))
     nb = _neighbours(area, k, box) if len(area.files) > 1 else None
     n_nb = 0 if nb is None else len(nb)
     x = np.concatenate([pts.x[use]] + ([nb.x] if n_nb else []))
     y = np.concatenate([pts.y[use]] + ([nb.y] if n_nb else []))
     z = np.concatenate([pts.z[use]] + ([nb.z] if n_nb else []))
-    g, _ = kraus_pfeifer(x, y, z, job.params, progress=SubProgress(prog, 0.2, 0.75),
-                         refine_res=job.refine_res, extent=box)
+    g, _ = kraus_pfeifer(x, y, z, params, progress=SubProgress(prog, 0.25, 1.0),
+                         refine_res=refine_res, extent=box)
     own = np.zeros(len(pts), bool)
-    own[use] = g[:int(use.sum())]
+    n_use = int(use.sum())
+    own[use] = g[:n_use]
+    return src, pts, own, (nb if n_nb else None), g[n_use:]
+
+
+def dtm_window(gx, gy, gz, bounds, res):
+    """The DTM (linear TIN of ground points) on the cells of ``bounds`` of the area's grid of
+    ``res`` metres: ``(array, left, top)``; NaN where fewer than 3 ground points."""
+    spec = GridSpec.from_bounds(*bounds, res)
+    if gx.size < 3:
+        return np.full(spec.shape, np.nan, np.float32), spec.left, spec.top
+    return interpolate_tin(gx, gy, gz, spec).astype(np.float32), spec.left, spec.top
+
+
+def ground_task(f, area: Catalog, job: GroundJob, progress=None) -> dict:
+    """Classify the file ``f`` of ``area`` (with the points of its neighbours within the
+    buffer), write its classified copy and return its counts and DTM piece."""
+    from ..io.lasout import write_classified
+    from .chain import ground_classes
+
+    prog = as_progress(progress)
+    k = list(area.files).index(f)
+    src, pts, own, nb, nb_ground = classify_buffered(f, area, job.params, job.buffer,
+                                                     job.refine_res, SubProgress(prog, 0, 0.75))
+    buf = job.buffer
     if own.sum() < 3:
         raise InputError(f"{f}: the ground filter kept {int(own.sum())} points; raise -w or "
                          "lower -g")
@@ -133,13 +159,11 @@ def ground_task(f, area: Catalog, job: GroundJob, progress=None) -> dict:
            "kept_classes": int((~np.isin(cls, (1, 2))).sum())}
     if job.dtm_res:
         gx, gy, gz = pts.x[cls == 2], pts.y[cls == 2], pts.z[cls == 2]
-        if n_nb:  # the neighbours' ground, as their own files get it
-            ncls = ground_classes(nb.classification, g[int(use.sum()):], job.reclassify) == 2
+        if nb is not None:  # the neighbours' ground, as their own files get it
+            ncls = ground_classes(nb.classification, nb_ground, job.reclassify) == 2
             gx, gy, gz = (np.concatenate([a, c[ncls]]) for a, c in
                           ((gx, nb.x), (gy, nb.y), (gz, nb.z)))
-        spec = GridSpec.from_bounds(*b, job.dtm_res)
-        out.update(dtm=interpolate_tin(gx, gy, gz, spec).astype(np.float32), left=spec.left,
-                   top=spec.top)
+        out["dtm"], out["left"], out["top"] = dtm_window(gx, gy, gz, area.bounds[k], job.dtm_res)
     prog.update(1.0, "done")
     return out
 
@@ -176,7 +200,7 @@ def ground_run(input, output, *, dtm_out=None, res="auto", params=None,
                    else check_resolution(res))
     buffer = GROUND_BUFFER if tiling.buffer is None else float(tiling.buffer)
     parts = [_part(p) for p in finals]
-    job = GroundJob(params, buffer, _area_refine_res(area), dtm_res, tuple(str(p) for p in parts),
+    job = GroundJob(params, buffer, area_refine_res(area), dtm_res, tuple(str(p) for p in parts),
                     bool(reclassify))
     if folder is not None:
         folder.mkdir(exist_ok=True)
