@@ -22,6 +22,7 @@ def _empty(n_tops: int) -> dict:
             "gaps_x": e, "gaps_y": e, "gaps_i": e.astype(np.int64), "gaps_j": e.astype(np.int64),
             "gaps_row": e.astype(np.int64), "gaps_plant": e.astype(np.int64),
             "gaps_zone": e.astype(np.int64), "tops_row": z, "tops_plant": z.copy(),
+            "shares": np.zeros(n_tops, bool),
             "numbering": "", "zones": {}}
 
 
@@ -90,13 +91,17 @@ def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: flo
            for k in ("gaps_x", "gaps_y", "gaps_i", "gaps_j", "gaps_row", "gaps_plant")}
     tops_row = np.zeros(tx.size, np.int64)
     tops_plant = np.zeros(tx.size, np.int64)
+    shares = np.zeros(tx.size, bool)
     for p in parts.values():
         took = p["tops_row"] > 0
         tops_row[took], tops_plant[took] = p["tops_row"][took], p["tops_plant"][took]
+        shares |= p["shares"]
+    shares &= tops_row == 0  # a top that took a position in its own stand keeps it
     e = out["expected"]
     R, C = main["spacing"]
     out.update(cat, grid=main["grid"], spacing=main["spacing"], numbering=main["numbering"],
-               tops_row=tops_row, tops_plant=tops_plant, planted_per_ha=1e4 / (R * C),
+               tops_row=tops_row, tops_plant=tops_plant, shares=shares,
+               planted_per_ha=1e4 / (R * C),
                stocking_pct=100.0 * out["stocked"] / e if e else float("nan"),
                gaps_zone=np.concatenate([np.full(p["gaps_x"].size, k, np.int64)
                                          for k, p in parts.items()]),

@@ -207,8 +207,9 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
     ``stocking_pct``, ``planted_per_ha`` (10,000 / (R x C)), ``gaps_x``, ``gaps_y``,
     ``gaps_i``, ``gaps_j`` (lattice indices of the missing trees), ``gaps_row``,
     ``gaps_plant`` (their row and plant numbers, :func:`crew_numbers`), ``tops_row``,
-    ``tops_plant`` (those of the position each top takes, 0 for none) and ``numbering`` (the
-    rule in words). ``grid``: a lattice already
+    ``tops_plant`` (those of the position each top takes, 0 for none), ``numbering`` (the
+    rule in words) and ``shares`` (per top: it took no position, and the position it rounds to
+    was taken by a nearer top). ``grid``: a lattice already
     fitted to these tops (e.g. by :func:`detect_planting`), not fitted again. ``within``
     (left, bottom, right, top): the tops are matched to every position, but only the
     positions, tops and planted cells inside this box are counted and reported (a tile's core).
@@ -251,6 +252,14 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
     # weeds, trees off the grid)
     free = np.ones(tx.size, bool) if own is None else np.asarray(own, bool).copy()
     free[top_k] = False
+    # the free tops whose position a nearer top took (a second top on one crown, a flank)
+    shares = np.zeros(tx.size, bool)
+    if free.any() and node_k.size:
+        taken = set(zip(ii[node_k].astype(int).tolist(), jj[node_k].astype(int).tolist()))
+        fi0, fj0 = g.to_lattice(tx[free], ty[free])
+        shares[np.nonzero(free)[0]] = [(a, b) in taken for a, b in
+                                       zip(np.round(fi0).astype(int).tolist(),
+                                           np.round(fj0).astype(int).tolist())]
     planted_cells = float(mask.sum())
     if within is not None:  # count only what lies in the box
         x0, y0, x1, y1 = within
@@ -275,7 +284,7 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
             "gaps_x": nx[gaps], "gaps_y": ny[gaps], "gaps_i": ii[gaps].astype(np.int64),
             "gaps_j": jj[gaps].astype(np.int64), "gaps_row": row_no[gaps],
             "gaps_plant": plant_no[gaps], "tops_row": tops_row, "tops_plant": tops_plant,
-            "numbering": numbering}
+            "numbering": numbering, "shares": shares}
 
 
 #: plantation mode's second look at an empty planting position (:func:`gap_tops`): the apex may

@@ -94,10 +94,14 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
     t = result["table"]
     st = stocking_by_stand(t["x"], t["y"], arr, spec, spacing, zone if given else None,
                            min_height=params.min_height, grid=grid, within=within)
+    lowest = params.min_height  # the lowest tree plantation mode adds
+    if given:  # one tree per planting position, none in the understorey
+        result, st, lowest = _one_per_position(result, st, arr, spec, params, heights, zone,
+                                               within)
+        t = result["table"]
     if returns is not None and st["missing"] and st.get("spacing") is not None:
         rows, cols = gap_tops(st["gaps_x"], st["gaps_y"], returns, result["smoothed"], spec,
-                              st["spacing"], top_x=t["x"], top_y=t["y"],
-                              min_height=params.min_height)
+                              st["spacing"], top_x=t["x"], top_y=t["y"], min_height=lowest)
         added = int(rows.size)
         if added:
             check_cancel(progress)
@@ -210,6 +214,43 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
                 "stand_cells": {} if zone is None else stand_cells(zone[r0:r1, c0:c1], core,
                                                                      params.min_height)})
     return out
+
+
+#: plantation mode: a top lower than this share of the dominant height is the understorey
+#: (shrubs, regrowth), not a planted tree: the share a suppressed tree reaches
+#: (:data:`lidartrees_gis.als.positions.SUPPRESSED_HEIGHT`)
+UNDERSTOREY_HEIGHT = 0.3
+
+
+def _one_per_position(result, st, arr, spec, params: TreeParams, heights, zone, within):
+    """Plantation mode's tops: those below :data:`UNDERSTOREY_HEIGHT` x the dominant height,
+    and those whose planting position a nearer top took (a crown's second top, a flank
+    between rows), are dropped and the crowns grown again from the others (their crowns
+    take the dropped tops' cells). Returns the result, its stocking and the lowest height a
+    planted tree may have (for the trees looked for at the empty positions)."""
+    from .positions import SUPPRESSED_HEIGHT, stocking_by_stand
+    from .trees import resolve_auto
+
+    t = result["table"]
+    hd = (result.get("auto") or {}).get("dominant_height", params.dominant_height)
+    if hd is None:
+        hd = resolve_auto(arr, spec.res, params)["dominant_height"]
+    lowest = max(params.min_height, min(UNDERSTOREY_HEIGHT, SUPPRESSED_HEIGHT) * float(hd))
+    low = np.asarray(t["height"], float) < lowest
+    drop = low | np.asarray(st.get("shares", np.zeros(low.size, bool)), bool)
+    if not drop.any() or drop.all():
+        return result, st, lowest
+    keep = ~drop
+    auto = result.get("auto")
+    result = detect_trees(arr, spec, params, heights=heights,
+                          tops=(np.asarray(t["row"])[keep], np.asarray(t["col"])[keep]))
+    if auto is not None and "auto" not in result:
+        result["auto"] = auto
+    result["dropped_tops"] = int(drop.sum())
+    t = result["table"]
+    st = stocking_by_stand(t["x"], t["y"], arr, spec, params.spacing, zone,
+                           min_height=params.min_height, within=within)
+    return result, st, lowest
 
 
 def _planted_separation(result, arr, spec, params: TreeParams, heights, spacing) -> dict:
