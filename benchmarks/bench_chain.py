@@ -32,6 +32,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 DATA = ROOT.parent / "shared" / "data"
+sys.path.insert(0, str(ROOT / "benchmarks"))
+from _peers import has_r_package, r_env  # noqa: E402
 
 #: the issue's measurements on the same machine kind (s at 2/4/8/16.3 M points)
 REPORTED = {"ours_before": [33, 52, 130, 241], "lasR": [8.5, 12.5, 30, 55],
@@ -125,30 +127,9 @@ cat("SECONDS", as.numeric(difftime(Sys.time(), t0, units = "secs")), "\n")
 """
 
 
-def r_env() -> dict:
-    """Environment for Rscript: the peers' library of ../shared/peers/build.sh (lasR 0.21.1,
-    lidR 4.1.2) when R_LIBS is not set."""
-    import os
-
-    env = dict(os.environ)
-    lib = Path.home() / ".cache" / "lidartrees-peers" / "rlib"
-    if "R_LIBS" not in env and lib.is_dir():
-        env["R_LIBS"] = str(lib)
-    return env
-
-
 def r_packages() -> list:
     """The R packages of the comparison that this machine has (``lasR``, ``lidR``)."""
-    rs = shutil.which("Rscript")
-    if not rs:
-        return []
-    have = []
-    for pkg in ("lasR", "lidR"):
-        p = subprocess.run([rs, "-e", f"quit(status = if (requireNamespace('{pkg}', quietly = TRUE)) 0 else 1)"],
-                           capture_output=True, env=r_env())
-        if p.returncode == 0:
-            have.append(pkg)
-    return have
+    return [pkg for pkg in ("lasR", "lidR") if has_r_package(pkg)]
 
 
 def run_r_chain(pkg: str, folder: Path, res: float = 0.5) -> dict:

@@ -45,6 +45,9 @@ from lidartrees_gis.tin import interpolate_tin  # noqa: E402
 from lidartrees_gis.ground.filter import KrausPfeifer, filter_errors, kraus_pfeifer, low_points  # noqa: E402
 from lidartrees_gis.io.points import open_points  # noqa: E402
 
+sys.path.insert(0, str(ROOT / "benchmarks"))
+from _peers import has_r_package, r_env  # noqa: E402
+
 SAMPLES = ["samp11", "samp21", "samp23", "samp31", "samp41", "samp51", "samp53", "samp61"]
 FOREST = ["lidR_extdata/Topography.laz", "lasR_bcts/bcts_1.laz", "neon_teak_dev/TEAK_043.laz",
           "neon_teak_dev/TEAK_046.laz"]
@@ -100,26 +103,8 @@ cat("SECONDS", as.numeric(difftime(Sys.time(), t0, units = "secs")), "\n")
 """
 
 
-def r_env() -> dict:
-    """Environment for Rscript: the peers' library of ../shared/peers/build.sh when R_LIBS is
-    not set."""
-    import os
-
-    env = dict(os.environ)
-    lib = Path.home() / ".cache" / "lidartrees-peers" / "rlib"
-    if "R_LIBS" not in env and lib.is_dir():
-        env["R_LIBS"] = str(lib)
-    return env
-
-
 def have_lasr() -> bool:
-    import shutil
-    import subprocess
-
-    rs = shutil.which("Rscript")
-    return bool(rs) and subprocess.run(
-        [rs, "-e", "quit(status = if (requireNamespace('lasR', quietly = TRUE)) 0 else 1)"],
-        capture_output=True, env=r_env()).returncode == 0
+    return has_r_package("lasR")
 
 
 def lasr_csf(path: Path, tmp: Path):
