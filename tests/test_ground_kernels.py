@@ -13,12 +13,12 @@ needs_numba = pytest.mark.skipif(not _accel.HAVE_NUMBA, reason="numba kernels no
 
 
 def _brute_low(x, y, z, depth=2.0, k=10):
-    """The definition, by brute force: sort every other point by distance (ties: lower index)."""
+    """The definition, by brute force: sort every other point by distance (ties: by x, y, z)."""
     out = np.zeros(x.size, bool)
     for i in range(x.size):
         d = (x - x[i]) ** 2 + (y - y[i]) ** 2
         d[i] = np.inf
-        nn = np.lexsort((np.arange(x.size), d))[:k]
+        nn = np.lexsort((z, y, x, d))[:k]
         out[i] = z[i] < np.sort(z[nn])[1] - depth
     return out
 

@@ -226,25 +226,38 @@ def lowest_index(idx, key, z, ncells):
 
 # ---------------------------------------------------------------------------------------------
 # second lowest height among the k nearest neighbours in plan
-def _knn_insert(d, p, zp, dist, zz, ids, found, k):
+def _before(d1, p1, d2, p2, sx, sy, sz):
+    """Whether candidate ``p1`` at squared distance ``d1`` comes before ``p2`` at ``d2``: the
+    nearer, and at equal distances the lower x, then y, then z (the points' own coordinates,
+    so a tile and the whole area order them alike)."""
+    if d1 != d2:
+        return d1 < d2
+    if sx[p1] != sx[p2]:
+        return sx[p1] < sx[p2]
+    if sy[p1] != sy[p2]:
+        return sy[p1] < sy[p2]
+    return sz[p1] < sz[p2]
+
+
+def _knn_insert(d, p, sx, sy, sz, dist, zz, ids, found, k):
     """Insert candidate ``p`` (squared distance ``d``) into the sorted k-nearest list."""
-    if found == k and (d > dist[k - 1] or (d == dist[k - 1] and p > ids[k - 1])):
+    if found == k and not _before(d, p, dist[k - 1], ids[k - 1], sx, sy, sz):
         return found
     m = found if found < k else k - 1
-    while m > 0 and (dist[m - 1] > d or (dist[m - 1] == d and ids[m - 1] > p)):
+    while m > 0 and _before(d, p, dist[m - 1], ids[m - 1], sx, sy, sz):
         dist[m] = dist[m - 1]
         zz[m] = zz[m - 1]
         ids[m] = ids[m - 1]
         m -= 1
     dist[m] = d
-    zz[m] = zp
+    zz[m] = sz[p]
     ids[m] = p
     return found + 1 if found < k else k
 
 
 def _knn_second_lowest(i, ri, ci, sx, sy, sz, start, cell, width, height, k, dist, zz, ids):
     """Second lowest z of the ``k`` nearest neighbours of point ``i`` (in cell ``ri, ci``),
-    searched ring by ring of cells; ties in distance go to the lower index."""
+    searched ring by ring of cells; ties in distance go by the coordinates (:func:`_before`)."""
     xi, yi = sx[i], sy[i]
     ex = min(xi - ci * cell, (ci + 1) * cell - xi)
     ey = min(yi - ri * cell, (ri + 1) * cell - yi)
@@ -262,7 +275,7 @@ def _knn_second_lowest(i, ri, ci, sx, sy, sz, start, cell, width, height, k, dis
                     for p in range(start[kc], start[kc + 1]):
                         if p != i:
                             d = (sx[p] - xi) * (sx[p] - xi) + (sy[p] - yi) * (sy[p] - yi)
-                            found = _knn_insert(d, p, sz[p], dist, zz, ids, found, k)
+                            found = _knn_insert(d, p, sx, sy, sz, dist, zz, ids, found, k)
                 if full or c != ci - ring:  # inner rows: the two edge columns only
                     c += 1
                 else:
@@ -338,6 +351,7 @@ def _isolated_low_py(sx, sy, sz, start, cell, width, height, k, depth, out):
 if HAVE_NUMBA:  # the helpers are inlined into the compiled search
     import numba
 
+    _before = numba.njit(inline="always", cache=True)(_before)
     _knn_insert = numba.njit(inline="always", cache=True)(_knn_insert)
     _knn_second_lowest = numba.njit(cache=True)(_knn_second_lowest)
 _isolated_low_nb = _jit(_isolated_low_py)
