@@ -117,6 +117,51 @@ def lowest(idx, x, y, z, cz, cx, cy, count) -> None:
     _lowest_nb(idx, x, y, z, cz, cx, cy, count)
 
 
+def _fill_mean8_py(out, empty, rows, cols, max_passes):
+    """Jacobi passes of :func:`lidartrees_gis.grid.fill_mean8` over the empty cells
+    ``(rows, cols)`` only (the list shrinks as they fill): each takes the mean of its 8
+    neighbours that were not empty before the pass. ``out`` and ``empty`` are updated in place;
+    returns the number of passes."""
+    h, w = out.shape
+    n = rows.shape[0]
+    vals = np.empty(n)
+    take = np.zeros(n, np.bool_)
+    passes = 0
+    while n > 0:
+        took = False
+        for i in range(n):
+            r, c = rows[i], cols[i]
+            s = 0.0
+            cnt = 0
+            for rr in range(max(r - 1, 0), min(r + 2, h)):
+                for cc in range(max(c - 1, 0), min(c + 2, w)):
+                    if (rr != r or cc != c) and not empty[rr, cc]:
+                        s += out[rr, cc]
+                        cnt += 1
+            take[i] = cnt > 0
+            if cnt > 0:
+                vals[i] = s / cnt
+                took = True
+        if not took:  # the rest cannot be reached
+            break
+        m = 0
+        for i in range(n):
+            if take[i]:
+                out[rows[i], cols[i]] = vals[i]
+                empty[rows[i], cols[i]] = False
+            else:
+                rows[m], cols[m] = rows[i], cols[i]
+                m += 1
+        n = m
+        passes += 1
+        if max_passes > 0 and passes >= max_passes:
+            break
+    return passes
+
+
+_fill_mean8_nb = _jit(_fill_mean8_py)
+
+
 def _draw_triangle_py(ax, ay, az, bx, by, bz, cx, cy, cz, max_edge, max_radius, left, top, res,
                       height, width, out):
     """Linear interpolation of one triangle at the cell centres it covers, kept where higher
