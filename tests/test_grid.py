@@ -138,3 +138,21 @@ def test_a_point_on_a_cell_edge_gets_the_same_cell_in_every_grid():
     assert np.array_equal(np.argwhere(acc_w.count.reshape(whole.shape) > 0) - [
         int(round((whole.top - tile.top) / res)), int(round((tile.left - whole.left) / res))],
         np.argwhere(acc_t.count.reshape(tile.shape) > 0))
+
+
+@pytest.mark.skipif(not _accel.HAVE_NUMBA, reason="numba kernels not in use")
+@pytest.mark.parametrize("frac,passes", [(0.3, None), (0.05, 3), (0.9, None)])
+def test_fill_mean8_compiled_equals_the_numpy_passes(frac, passes, monkeypatch):
+    rng = np.random.default_rng(1)
+    g = rng.normal(20, 3, (120, 150))
+    g[rng.random(g.shape) < frac] = np.nan
+    g[10:40, 10:50] = np.nan  # a wide hole: several passes
+    mask = np.ones(g.shape, bool)
+    mask[:, -5:] = False  # cells outside the mask stay empty, and block the fill
+    for m in (None, mask):
+        a = fill_mean8(g, mask=m, max_passes=passes)
+        monkeypatch.setattr(_accel, "HAVE_NUMBA", False)
+        b = fill_mean8(g, mask=m, max_passes=passes)
+        monkeypatch.setattr(_accel, "HAVE_NUMBA", True)
+        assert np.isnan(a).sum() < np.isnan(g).sum()
+        np.testing.assert_array_equal(a, b)
