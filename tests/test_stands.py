@@ -256,3 +256,13 @@ def test_evaluate_per_stand_when_the_reference_has_a_stand_id(two_stands, tmp_pa
     assert sum(s["detected"] for s in st.values()) <= r["all"]["detected"]
     assert all(s["f_score"] > 0.95 for s in st.values())
     assert "| stand T-02 |" in r["table"]
+
+
+def test_understorey_floor_is_the_suppressed_trees_floor():
+    """Plantation mode drops tops below the share of the dominant height that a suppressed tree
+    must reach: one threshold, so a tree is never too low to be a tree yet high enough to be a
+    suppressed one."""
+    from lidartrees_gis.als.positions import SUPPRESSED_HEIGHT
+    from lidartrees_gis.als.tile import UNDERSTOREY_HEIGHT
+
+    assert UNDERSTOREY_HEIGHT == SUPPRESSED_HEIGHT

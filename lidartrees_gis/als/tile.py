@@ -217,8 +217,8 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
 
 
 #: plantation mode: a top lower than this share of the dominant height is the understorey
-#: (shrubs, regrowth), not a planted tree: the share a suppressed tree reaches
-#: (:data:`lidartrees_gis.als.positions.SUPPRESSED_HEIGHT`)
+#: (shrubs, regrowth), not a planted tree; the same share a suppressed tree must reach
+#: (:data:`lidartrees_gis.als.positions.SUPPRESSED_HEIGHT`, kept equal by a test)
 UNDERSTOREY_HEIGHT = 0.3
 
 
@@ -228,14 +228,14 @@ def _one_per_position(result, st, arr, spec, params: TreeParams, heights, zone, 
     between rows), are dropped and the crowns grown again from the others (their crowns
     take the dropped tops' cells). Returns the result, its stocking and the lowest height a
     planted tree may have (for the trees looked for at the empty positions)."""
-    from .positions import SUPPRESSED_HEIGHT, stocking_by_stand
+    from .positions import stocking_by_stand
     from .trees import resolve_auto
 
     t = result["table"]
     hd = (result.get("auto") or {}).get("dominant_height", params.dominant_height)
     if hd is None:
         hd = resolve_auto(arr, spec.res, params)["dominant_height"]
-    lowest = max(params.min_height, min(UNDERSTOREY_HEIGHT, SUPPRESSED_HEIGHT) * float(hd))
+    lowest = max(params.min_height, UNDERSTOREY_HEIGHT * float(hd))
     low = np.asarray(t["height"], float) < lowest
     drop = low | np.asarray(st.get("shares", np.zeros(low.size, bool)), bool)
     if not drop.any() or drop.all():
