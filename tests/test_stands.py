@@ -258,6 +258,64 @@ def test_evaluate_per_stand_when_the_reference_has_a_stand_id(two_stands, tmp_pa
     assert "| stand T-02 |" in r["table"]
 
 
+def test_plantation_mode_one_tree_per_position_and_no_shrubs(tmp_path):
+    """Shrubs of 3-4 m at missing planting positions under a 23 m stand: the defaults take
+    them for trees; plantation mode leaves them out (below 30 % of the dominant height), so
+    their positions are missing trees in the gaps layer, and no position holds two tops."""
+    import pyogrio
+
+    from lidartrees_gis.als.chain import trees_run
+    from lidartrees_gis.als.trees import TreeParams
+
+    # crowns of 0.9 m on 3 x 2 m: a missing tree leaves the sky open over a shrub
+    pts, truth = make_stand(StandParams(seed=5, missing_fraction=0.06, mean_crown_radius=0.9,
+                                        sd_crown_radius=0.1))
+    mx, my = np.asarray(truth["_missing_x"]), np.asarray(truth["_missing_y"])
+    rng = np.random.default_rng(0)
+    sx, sy, sz = [pts.x], [pts.y], [pts.z]
+    from lidartrees_gis.synthetic import ground_height
+
+    for x0, y0 in zip(mx, my):  # a 3-4 m paraboloid shrub of 0.8 m radius, 25 returns/m²
+        n = 50
+        r = 0.8 * np.sqrt(rng.random(n))
+        t = rng.random(n) * 2 * np.pi
+        h = rng.uniform(3.0, 4.0)
+        sx.append(x0 + r * np.cos(t))
+        sy.append(y0 + r * np.sin(t))
+        sz.append(ground_height(x0, y0) + h * (1 - (r / 0.8) ** 2))
+    x, y, z = (np.concatenate(a) for a in (sx, sy, sz))
+    cls = np.r_[pts.classification, np.ones(x.size - pts.x.size, np.uint8)]
+    f = tmp_path / "shrubs.las"
+    write_points(f, x, y, z, crs=CRS.from_user_input("EPSG:29194"), classification=cls)
+    assert mx.size >= 10
+
+    def tops(name, **kw):
+        trees_run(f, tmp_path / f"{name}.gpkg", params=TreeParams(**kw))
+        t = pyogrio.read_dataframe(tmp_path / f"{name}.gpkg", layer="tree_tops",
+                                   read_geometry=False)
+        return t["x"].to_numpy(), t["y"].to_numpy(), t["height"].to_numpy()
+
+    def at_shrubs(tx, ty):
+        d = np.hypot(tx[:, None] - mx[None, :], ty[:, None] - my[None, :])
+        return int((d.min(axis=0) < 0.6).sum())
+
+    dx, dy, _ = tops("defaults")
+    px, py, ph = tops("plantation", spacing="3x2")
+    assert at_shrubs(dx, dy) >= 0.5 * mx.size  # the defaults count the shrubs as trees
+    assert at_shrubs(px, py) == 0 and ph.min() >= 0.3 * np.percentile(ph, 95) - 1.0
+    gaps = pyogrio.read_dataframe(tmp_path / "plantation.gpkg", layer="gaps",
+                                  read_geometry=False)
+    miss = gaps[gaps["status"] == "missing"]
+    d = np.hypot(miss["x"].to_numpy()[:, None] - mx[None, :],
+                 miss["y"].to_numpy()[:, None] - my[None, :])
+    assert (d.min(axis=0) < 1.0).sum() >= 0.9 * mx.size  # the shrubs' positions are gaps
+    # one top per planting position: no two tops nearer than half the in-row spacing
+    from scipy.spatial import cKDTree
+
+    dd, _ = cKDTree(np.c_[px, py]).query(np.c_[px, py], k=2)
+    assert dd[:, 1].min() >= 1.0
+
+
 def test_understorey_floor_is_the_suppressed_trees_floor():
     """Plantation mode drops tops below the share of the dominant height that a suppressed tree
     must reach: one threshold, so a tree is never too low to be a tree yet high enough to be a
