@@ -507,19 +507,24 @@ def test_detect_planting_finds_the_lattice_of_a_stand_and_none_in_random_trees(s
     assert detect_planting(truth["x"][:80], truth["y"][:80]) is None
 
 
-def test_detect_planting_gives_up_after_a_fit_on_a_sample_of_random_trees(stand, monkeypatch):
-    """Every tile of a large area looks for a lattice: random trees are given up on after a
-    fit on PRE_FIT_TREES of them; a stand's lattice is then fitted on all its tops."""
+def test_detect_planting_gives_up_on_random_trees_before_any_fit(stand, monkeypatch):
+    """Every tile of a large area looks for a lattice: random trees (neighbours' directions
+    spread: about 13 % within 12 degrees of the commonest) are given up on before any lattice
+    fit or period search; a stand's lattice is fitted first on PRE_FIT_TREES of its tops, then
+    on all."""
     from lidartrees_gis.als import stocking
 
-    calls = []
+    calls, refined = [], []
     fit = stocking.fit_planting_grid
+    refine = stocking._refine_direction
     monkeypatch.setattr(stocking, "fit_planting_grid",
                         lambda x, y, r, t: calls.append(len(x)) or fit(x, y, r, t))
+    monkeypatch.setattr(stocking, "_refine_direction",
+                        lambda *a, **k: refined.append(1) or refine(*a, **k))
     rng = np.random.default_rng(5)
     assert stocking.detect_planting(rng.uniform(0, 200, 2000), rng.uniform(0, 200, 2000)) is None
+    assert calls == [] and refined == []
     pre = stocking.PRE_FIT_TREES  # each fit twice: the periods again along its direction
-    assert calls == [pre, pre]
     calls.clear()
     _, truth = stand
     assert stocking.detect_planting(truth["x"], truth["y"]) is not None
