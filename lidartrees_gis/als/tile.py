@@ -115,12 +115,7 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
                 t = result["table"]
                 st = stocking_by_stand(t["x"], t["y"], arr, spec, spacing, zone,
                                        min_height=params.min_height, within=within)
-    # the dominant height the adaptive window used (the plan's, or the CHM's 95th percentile)
-    hd = (result.get("auto") or {}).get("dominant_height", params.dominant_height)
-    if hd is None:
-        from .trees import resolve_auto
-
-        hd = resolve_auto(arr, spec.res, params)["dominant_height"]
+    hd = _dominant_height(result, arr, spec, params)
     if given:  # the stocking report (gaps layer) is for plantation mode only
         result["stocking"] = classify_gaps(st, points, st["spacing"], hd, params.min_height)
     elif points is not None and st["missing"]:  # a lattice under the defaults' tops: its
@@ -216,6 +211,16 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
     return out
 
 
+def _dominant_height(result, arr, spec, params: TreeParams) -> float:
+    """The dominant height the adaptive window used (the plan's, or the CHM's own)."""
+    hd = (result.get("auto") or {}).get("dominant_height", params.dominant_height)
+    if hd is None:
+        from .trees import resolve_auto
+
+        hd = resolve_auto(arr, spec.res, params)["dominant_height"]
+    return float(hd)
+
+
 #: plantation mode: a top lower than this share of the dominant height is the understorey
 #: (shrubs, regrowth), not a planted tree; the same share a suppressed tree must reach
 #: (:data:`lidartrees_gis.als.positions.SUPPRESSED_HEIGHT`, kept equal by a test)
@@ -229,12 +234,9 @@ def _one_per_position(result, st, arr, spec, params: TreeParams, heights, zone, 
     take the dropped tops' cells). Returns the result, its stocking and the lowest height a
     planted tree may have (for the trees looked for at the empty positions)."""
     from .positions import stocking_by_stand
-    from .trees import resolve_auto
 
     t = result["table"]
-    hd = (result.get("auto") or {}).get("dominant_height", params.dominant_height)
-    if hd is None:
-        hd = resolve_auto(arr, spec.res, params)["dominant_height"]
+    hd = _dominant_height(result, arr, spec, params)
     lowest = max(params.min_height, UNDERSTOREY_HEIGHT * float(hd))
     low = np.asarray(t["height"], float) < lowest
     drop = low | np.asarray(st.get("shares", np.zeros(low.size, bool)), bool)

@@ -6,6 +6,19 @@ import json
 import numpy as np
 
 
+def window_of(spec, shape, left, top):
+    """Where an array of ``shape`` whose upper-left corner is at ``(left, top)`` falls in the
+    grid ``spec``, clipped to it: ``((r0, r1, c0, c1), (rows, cols))`` (the grid's window and
+    the array's slices), or None when it falls outside."""
+    c0 = int(round((left - spec.left) / spec.res))
+    r0 = int(round((spec.top - top) / spec.res))
+    rr0, cc0 = max(r0, 0), max(c0, 0)
+    rr1, cc1 = min(r0 + shape[0], spec.height), min(c0 + shape[1], spec.width)
+    if rr1 <= rr0 or cc1 <= cc0:
+        return None
+    return (rr0, rr1, cc0, cc1), (slice(rr0 - r0, rr1 - r0), slice(cc0 - c0, cc1 - c0))
+
+
 class MosaicWriter:
     """A tiled GeoTIFF over the whole area (``spec``), written window by window as tiles finish
     (float32 with NaN written as ``nodata``, or an integer type)."""
@@ -47,16 +60,11 @@ class MosaicWriter:
     def write(self, arr, left, top):
         from rasterio.windows import Window
 
-        s = self.spec
-        c0 = int(round((left - s.left) / s.res))
-        r0 = int(round((s.top - top) / s.res))
-        a = np.asarray(arr)
-        # clip to the mosaic
-        rr0, cc0 = max(r0, 0), max(c0, 0)
-        rr1, cc1 = min(r0 + a.shape[0], s.height), min(c0 + a.shape[1], s.width)
-        if rr1 <= rr0 or cc1 <= cc0:
+        win = window_of(self.spec, np.shape(arr), left, top)
+        if win is None:
             return
-        a = a[rr0 - r0:rr1 - r0, cc0 - c0:cc1 - c0]
+        (rr0, rr1, cc0, cc1), (ar, ac) = win
+        a = np.asarray(arr)[ar, ac]
         if self.dtype.kind == "f":
             a = np.where(np.isnan(a), self.nodata, a)
         self.ds.write(a.astype(self.dtype), 1, window=Window(cc0, rr0, cc1 - cc0, rr1 - rr0))

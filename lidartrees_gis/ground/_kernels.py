@@ -187,6 +187,12 @@ def kp_weights_fast(v, g, w, a, b):
         _weights_nb(np.ascontiguousarray(v, np.float64), float(g), float(w), float(a), float(b),
                     out)
         return out
+    return kp_weights_np(v, g, w, a, b)
+
+
+def kp_weights_np(v, g, w, a, b):
+    """Kraus & Pfeifer weights (seed 003, eq. 1): 1 at or below g, 1 / (1 + (a (v - g))^b)
+    up to g + w, 0 above; numpy."""
     v = np.asarray(v, dtype=np.float64)
     p = 1.0 / (1.0 + (a * (v - g)) ** b)
     p = np.where(v <= g, 1.0, p)

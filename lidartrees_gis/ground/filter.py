@@ -49,7 +49,8 @@ import numpy as np
 from ..errors import InputError
 from ..grid import GridSpec, check_sparse, fill_mean8
 from ..progress import as_progress, check_cancel
-from ._kernels import bilinear, lowest_index, kp_weights_fast, plane_surface, residuals, isolated_low
+from ._kernels import (bilinear, isolated_low, kp_weights_fast, kp_weights_np, lowest_index,
+                       plane_surface, residuals)
 
 
 @dataclass(frozen=True)
@@ -111,10 +112,7 @@ def kp_weights(v, g=-2.0, w=2.5, a=1.0, b=4.0):
     >>> kp_weights(np.array([-3.0, -1.0, 1.0]), g=-2, w=2.5).round(4).tolist()
     [1.0, 0.5, 0.0]
     """
-    v = np.asarray(v, dtype=np.float64)
-    p = 1.0 / (1.0 + (a * (v - g)) ** b)
-    p = np.where(v <= g, 1.0, p)
-    return np.where(v > g + w, 0.0, p)
+    return kp_weights_np(v, g, w, a, b)
 
 
 def shifted_g(v, weights, g):
@@ -161,10 +159,15 @@ def _residuals(grid, spec: GridSpec, x, y, z):
     return residuals(grid, spec.left, spec.top, spec.res, x, y, z)
 
 
+def refine_cell_for(area: float, count: int) -> float:
+    """Cell of the densification DTM for ``count`` points over ``area`` m²: sqrt(area / n),
+    clipped to 0.5-2 m, rounded to 0.1 m."""
+    return round(min(2.0, max(0.5, float(np.sqrt(max(area, 1.0) / max(count, 1))))), 1)
+
+
 def refine_cell(x, y) -> float:
-    """Cell of the densification DTM: sqrt(area / n), clipped to 0.5-2 m, rounded to 0.1 m."""
-    area = max(float(np.ptp(x)) * float(np.ptp(y)), 1.0)
-    return round(min(2.0, max(0.5, float(np.sqrt(area / max(x.size, 1))))), 1)
+    """:func:`refine_cell_for` the points' bounding box."""
+    return refine_cell_for(float(np.ptp(x)) * float(np.ptp(y)), x.size)
 
 
 def lowest_per_cell(x, y, z, sel, res):

@@ -12,7 +12,7 @@ import numpy as np
 from ..errors import InputError
 from ..catalog.catalog import Catalog
 from ..catalog.inputs import is_catalog_input
-from ..grid import GridSpec, auto_resolution, check_resolution, resolve_resolution
+from ..grid import GridSpec, resolve_resolution
 from ..io.options import ReadOptions
 from ..io.provenance import raster_tags, repro_report
 from ..io.raster import write_geotiff
@@ -132,14 +132,14 @@ def dtm_quality_file(input, outdir, *, g="-4:1:0.5", w="1:4:0.5", res="auto", pa
     read = read or ReadOptions()
     stack = contextlib.ExitStack()
     with stack:
-        if is_catalog_input(input) and len(Catalog.open(input, read).files) > 1:
+        area = Catalog.open(input, read) if is_catalog_input(input) else None
+        if area is not None and len(area.files) > 1:
             # several files: each (g, w) over each file with a buffer, DTMs kept on disk
             from .quality_area import footprint_and_reference, sweep_area
+            from .tiled import area_resolution
 
-            src = Catalog.open(input, read)
-            r = (auto_resolution(src.count, src.area)
-                 if isinstance(res, str) and res.strip().lower() == "auto" else
-                 check_resolution(res))
+            src = area
+            r = area_resolution(src, res)
             spec = GridSpec.from_bounds(*src.extent, r, crs=src.crs)
             auto = str(reference or "auto").lower() == "auto"
             footprint, ref, n2 = footprint_and_reference(src, spec, auto)
@@ -153,7 +153,8 @@ def dtm_quality_file(input, outdir, *, g="-4:1:0.5", w="1:4:0.5", res="auto", pa
             results = sweep_area(src, spec, base, combos, workers, tmp,
                                  progress=SubProgress(prog, 0.05, 0.9))
         else:
-            src = read.open(input, filtered=False)
+            # one file (a folder or list of one: that file)
+            src = read.open(area.files[0] if area is not None else input, filtered=False)
             pts = src.read_all(SubProgress(prog, 0, 0.05))
             r = resolve_resolution(src, res)
             spec = GridSpec.from_bounds(pts.x.min(), pts.y.min(), pts.x.max(), pts.y.max(), r,

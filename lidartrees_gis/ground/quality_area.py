@@ -13,13 +13,14 @@ from pathlib import Path
 import numpy as np
 
 from ..catalog.catalog import Catalog
+from ..catalog.mosaic import window_of
 from ..catalog.runner import TileRunner, default_workers
 from ..grid import GridSpec
 from ..progress import SubProgress, as_progress
 from ..tin import interpolate_tin
 from .filter import KrausPfeifer
 from .texture import texture_descriptors
-from .tiled import GROUND_BUFFER, area_refine_res, classify_buffered, dtm_window
+from .tiled import GROUND_BUFFER, area_refine_res, classify_buffered, dtm_window, ground_xyz
 
 
 @dataclass(frozen=True)
@@ -42,26 +43,20 @@ def sweep_task(item, area: Catalog, job: SweepJob, progress=None) -> dict:
     try:
         _, pts, own, nb, nb_ground = classify_buffered(f, area, replace(job.base, g=g, w=w),
                                                        job.buffer, job.refine_res, progress)
+        gx, gy, gz = ground_xyz(pts, own, nb, nb_ground)
     except InputError:  # every weight became 0: no ground with this (g, w)
-        spec = GridSpec.from_bounds(*area.bounds[k], job.res)
-        return {"g": g, "w": w, "ground": 0, "dtm": np.full(spec.shape, np.nan, np.float32),
-                "left": spec.left, "top": spec.top}
-    gx, gy, gz = pts.x[own], pts.y[own], pts.z[own]
-    if nb is not None:
-        gx, gy, gz = (np.concatenate([a, c[nb_ground]]) for a, c in
-                      ((gx, nb.x), (gy, nb.y), (gz, nb.z)))
+        own, gx = np.zeros(0, bool), np.empty(0)
+        gy = gz = gx
     dtm, left, top = dtm_window(gx, gy, gz, area.bounds[k], job.res)
     return {"g": g, "w": w, "ground": int(own.sum()), "dtm": dtm, "left": left, "top": top}
 
 
 def _paste(grid, spec: GridSpec, arr, left, top) -> None:
     """Write a window of the area's grid (clipped to it)."""
-    c0 = int(round((left - spec.left) / spec.res))
-    r0 = int(round((spec.top - top) / spec.res))
-    rr0, cc0 = max(r0, 0), max(c0, 0)
-    rr1, cc1 = min(r0 + arr.shape[0], spec.height), min(c0 + arr.shape[1], spec.width)
-    if rr1 > rr0 and cc1 > cc0:
-        grid[rr0:rr1, cc0:cc1] = arr[rr0 - r0:rr1 - r0, cc0 - c0:cc1 - c0]
+    win = window_of(spec, arr.shape, left, top)
+    if win is not None:
+        (r0, r1, c0, c1), (ar, ac) = win
+        grid[r0:r1, c0:c1] = arr[ar, ac]
 
 
 def footprint_and_reference(area: Catalog, spec: GridSpec, want_reference: bool):

@@ -30,7 +30,7 @@ from ..io.output import OutputOptions, check_output, check_outputs
 from ..io.provenance import raster_tags, repro_meta, repro_report
 from ..progress import SubProgress, as_progress
 from ..tin import interpolate_tin
-from .filter import KrausPfeifer, kraus_pfeifer
+from .filter import KrausPfeifer, kraus_pfeifer, refine_cell_for
 
 #: buffer (m) of each file's task: the filter's TIN uses triangles up to 20 m in circumradius
 #: (``filter.DENSIFY_RADIUS``); with it the four lasR bcts tiles as a folder classify their
@@ -51,9 +51,24 @@ class GroundJob:
 
 
 def area_refine_res(area: Catalog) -> float:
-    """The densification grid of the whole area (:func:`filter.refine_cell` of its density)."""
-    dens_cell = np.sqrt(max(area.area, 1.0) / max(area.count, 1))
-    return round(min(2.0, max(0.5, float(dens_cell))), 1)
+    """The densification grid of the whole area (:func:`filter.refine_cell_for` its density)."""
+    return refine_cell_for(area.area, area.count)
+
+
+def area_resolution(area: Catalog, res) -> float:
+    """The DTM cell of ``area``: ``res`` metres, or ``auto``: seed 003's sqrt(1/n) of the
+    area's density."""
+    if isinstance(res, str) and res.strip().lower() == "auto":
+        return auto_resolution(area.count, area.area)
+    return check_resolution(res)
+
+
+def ground_xyz(pts, mask, nb=None, nb_mask=None):
+    """The ground points (``mask``) of a file and those (``nb_mask``) of its neighbours."""
+    gx, gy, gz = pts.x[mask], pts.y[mask], pts.z[mask]
+    if nb is None:
+        return gx, gy, gz
+    return tuple(np.concatenate([a, c[nb_mask]]) for a, c in ((gx, nb.x), (gy, nb.y), (gz, nb.z)))
 
 
 def output_paths(area: Catalog, output) -> list:
@@ -158,11 +173,10 @@ def ground_task(f, area: Catalog, job: GroundJob, progress=None) -> dict:
     out = {"file": k, "points": len(pts), "ground": int((cls == 2).sum()),
            "kept_classes": int((~np.isin(cls, (1, 2))).sum())}
     if job.dtm_res:
-        gx, gy, gz = pts.x[cls == 2], pts.y[cls == 2], pts.z[cls == 2]
-        if nb is not None:  # the neighbours' ground, as their own files get it
-            ncls = ground_classes(nb.classification, nb_ground, job.reclassify) == 2
-            gx, gy, gz = (np.concatenate([a, c[ncls]]) for a, c in
-                          ((gx, nb.x), (gy, nb.y), (gz, nb.z)))
+        # the neighbours' ground as their own files get it
+        ncls = None if nb is None else \
+            ground_classes(nb.classification, nb_ground, job.reclassify) == 2
+        gx, gy, gz = ground_xyz(pts, cls == 2, nb, ncls)
         out["dtm"], out["left"], out["top"] = dtm_window(gx, gy, gz, area.bounds[k], job.dtm_res)
     prog.update(1.0, "done")
     return out
@@ -193,11 +207,7 @@ def ground_run(input, output, *, dtm_out=None, res="auto", params=None,
     else:
         check_outputs([(p, "OUTPUT") for p in finals] + [(dtm_out, "-dtm_out")], area.files,
                       out.overwrite)
-    dtm_res = None
-    if dtm_out:
-        dtm_res = (auto_resolution(area.count, area.area)
-                   if isinstance(res, str) and res.strip().lower() == "auto"
-                   else check_resolution(res))
+    dtm_res = area_resolution(area, res) if dtm_out else None
     buffer = GROUND_BUFFER if tiling.buffer is None else float(tiling.buffer)
     parts = [_part(p) for p in finals]
     job = GroundJob(params, buffer, area_refine_res(area), dtm_res, tuple(str(p) for p in parts),
