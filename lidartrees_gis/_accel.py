@@ -333,9 +333,10 @@ def _layered_tin_py(px, py, pz, band_end, band_edge, max_radius, left, top, res,
     ``px, py, pz`` are the points in insertion order (local coordinates, in general position:
     see ``chm.tiebreak``), band ``k`` being ``[band_end[k-1], band_end[k])``. After band ``k``
     the triangles of the points inserted so far are drawn with :func:`_draw_triangle_py`, edge
-    limit ``band_edge[k]`` and circumradius limit ``max_radius`` (> 0); a triangle already drawn
-    for an earlier band with the same edge limit is not drawn again (the surface keeps the
-    highest value, so drawing it again changes nothing). Coincident points keep the highest z.
+    limit ``band_edge[k]`` and circumradius limit ``max_radius`` (> 0); a triangle drawn for an
+    earlier band is not drawn again, and one left out by an earlier band's edge limit is tried
+    again only when the limit changes (the surface keeps the highest value, so drawing a
+    triangle twice changes nothing). Coincident points keep the highest z.
 
     Starts from a super-triangle ~1e4 extents away: a triangle of the points can only differ
     from their Delaunay triangulation if its circumcircle reaches a super vertex, far beyond
@@ -372,6 +373,7 @@ def _layered_tin_py(px, py, pz, band_end, band_edge, max_radius, left, top, res,
     tn = np.full((cap, 3), -1, np.int32)
     born = np.full(cap, -1, np.int32)  # band that made the triangle; -1 = free slot
     stamp = np.zeros(cap, np.int32)
+    painted = np.zeros(cap, np.uint8)  # drawn already: never drawn again unless a z changed
     big = 1 << 16  # the largest cavity (a few triangles in practice; -4 beyond)
     free = np.empty(big + 8, np.int64)  # a cavity's slots, reused at once by its new triangles
     nfree = 0
@@ -490,6 +492,7 @@ def _layered_tin_py(px, py, pz, band_end, band_edge, max_radius, left, top, res,
                 tn[nt, 2] = nb
                 born[nt] = k
                 stamp[nt] = 0
+                painted[nt] = 0
                 if nb >= 0:
                     tn[nb, eold[h]] = nt
                 start_of[a] = nt
@@ -512,10 +515,14 @@ def _layered_tin_py(px, py, pz, band_end, band_edge, max_radius, left, top, res,
             a, b, c = tv[t, 0], tv[t, 1], tv[t, 2]
             if a >= n or b >= n or c >= n:
                 continue
-            if not (redraw or born[t] == k or zmod[a] == k or zmod[b] == k or zmod[c] == k):
-                continue
-            _draw_triangle(X[a], Y[a], Z[a], X[b], Y[b], Z[b], X[c], Y[c], Z[c], edge,
-                           max_radius, left, top, res, height, width, out)
+            if not (born[t] == k or zmod[a] == k or zmod[b] == k or zmod[c] == k):
+                # an older triangle: drawn again only when the edge limit changed and it was
+                # not drawn yet (its values are the same; the surface keeps the highest)
+                if not redraw or painted[t]:
+                    continue
+            if _draw_triangle(X[a], Y[a], Z[a], X[b], Y[b], Z[b], X[c], Y[c], Z[c], edge,
+                              max_radius, left, top, res, height, width, out):
+                painted[t] = 1
     return inserted
 
 

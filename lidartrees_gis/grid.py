@@ -334,8 +334,9 @@ def data_footprint(occupied, res: float, distance: float = 2.0) -> np.ndarray:
     occ = np.asarray(occupied, bool)
     if occ.all() or not occ.any():
         return occ.copy() if not occ.any() else np.ones(occ.shape, bool)
-    d = ndimage.distance_transform_edt(~occ) * res
-    return d <= max(distance, res * 1.01)
+    from ._raster import within_distance
+
+    return within_distance(occ, res, max(distance, res * 1.01))
 
 
 class LowestPoints:

@@ -13,7 +13,7 @@ PKG = ROOT / "lidartrees_gis"
 
 #: the rooms, lowest first; a module may import its own room and the rooms listed for it
 ROOMS = {
-    "core": (),  # errors, progress, crs, grid, tin, _accel
+    "core": (),  # errors, progress, crs, grid, tin, _accel, _raster
     "io": ("core",),
     "catalog": ("core", "io"),
     "report": ("core", "io"),
@@ -24,7 +24,7 @@ ROOMS = {
     # the adapters on top: the command line, the Python API, the demo and the fuzzer
     "top": ("core", "io", "catalog", "report", "ground", "tls", "als", "synthetic"),
 }
-CORE = {"errors", "progress", "crs", "grid", "tin", "_accel", "_version"}
+CORE = {"errors", "progress", "crs", "grid", "tin", "_accel", "_raster", "_version"}
 
 
 def _modules():

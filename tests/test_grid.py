@@ -156,3 +156,34 @@ def test_fill_mean8_compiled_equals_the_numpy_passes(frac, passes, monkeypatch):
         monkeypatch.setattr(_accel, "HAVE_NUMBA", True)
         assert np.isnan(a).sum() < np.isnan(g).sum()
         np.testing.assert_array_equal(a, b)
+
+
+def test_compiled_footprint_and_bilinear_equal_scipy():
+    """The compiled data footprint is scipy's distance transform test, cell for cell, and the
+    compiled bilinear sample is map_coordinates(order=1, mode="nearest") and its numpy twin."""
+    from scipy import ndimage
+
+    from lidartrees_gis import _raster
+
+    rng = np.random.default_rng(3)
+    for _ in range(300):
+        shape = (int(rng.integers(1, 30)), int(rng.integers(1, 30)))
+        occ = rng.random(shape) < rng.random()
+        occ.flat[0] = True
+        res, dist = rng.uniform(0.2, 1.5), rng.uniform(0.1, 3.0)
+        want = ndimage.distance_transform_edt(~occ) * res <= dist
+        assert np.array_equal(_raster.within_distance(occ, res, dist), want)
+    g = rng.random((20, 30)) * 50
+    row, col = rng.uniform(-2, 22, 5000), rng.uniform(-2, 32, 5000)
+    got = _raster.sample_bilinear(g, row, col)
+    np.testing.assert_allclose(got, ndimage.map_coordinates(g, [row, col], order=1, mode="nearest"),
+                               rtol=0, atol=1e-12)
+    assert got.min() >= g.min() and got.max() <= g.max()
+    compiled = _raster.HAVE_NUMBA
+    try:
+        _raster.HAVE_NUMBA = False
+        assert np.array_equal(_raster.sample_bilinear(g, row, col), got)
+        assert np.array_equal(_raster.within_distance(occ, 0.5, 2.0),
+                              ndimage.distance_transform_edt(~occ) * 0.5 <= 2.0)
+    finally:
+        _raster.HAVE_NUMBA = compiled

@@ -166,6 +166,39 @@ def test_crown_polygons_outline_each_label_with_holes_and_one_piece():
     assert p[1].bounds == (6, t - 11, 11, t - 6)
 
 
+def test_traced_crown_outlines_equal_gdal_polygonize():
+    """The compiled outline tracer gives GDAL's polygons (rasterio ``shapes``, 4-connected) on
+    random label grids full of holes, diagonal touches and crowns in several pieces."""
+    from lidartrees_gis import _accel
+    from lidartrees_gis.grid import GridSpec
+    from lidartrees_gis.als.metrics import _crown_polygons_gdal, crown_polygons, outline_rings
+
+    if not _accel.HAVE_NUMBA:
+        pytest.skip("numba not in use: crown_polygons is GDAL's")
+    rng = np.random.default_rng(7)
+    spec = GridSpec.from_bounds(300_000.0, 7_400_000.0, 300_024.0, 7_400_018.0, 0.5)
+    n_multi = n_holes = 0
+    for t in range(40):
+        n = int(rng.integers(1, 12))
+        lab = rng.integers(0, n + 3, spec.shape)  # labels over n are not crowns
+        if t % 2:  # blobs: smoother regions with holes
+            lab = ndimage.median_filter(lab, size=3)
+        a = crown_polygons(lab, spec, n)
+        b = _crown_polygons_gdal(lab, spec, n)
+        assert len(a) == len(b) == n
+        _, _, ring_lab, _, area = outline_rings(lab, n)
+        pieces = np.bincount(ring_lab[area > 0], minlength=n + 1)
+        n_multi += int((pieces > 1).sum())
+        for k, (p, q) in enumerate(zip(a, b), start=1):
+            assert (p is None) == (q is None)
+            if p is not None:
+                assert p.geom_type == "Polygon" and p.is_valid
+                n_holes += len(p.interiors)
+                # pieces of equal area: either is the largest (the first traced is kept)
+                assert p.equals(q) if pieces[k] == 1 else p.area == q.area
+    assert n_multi > 50 and n_holes > 50  # the cases were there
+
+
 def _annex2_reference(chm, seeds_r, seeds_c, hmax, hmin, step, labels):
     """Seed 000 Annex 2 as written: every pass visits every queued cell in queue order (the
     library visits only the cells that can act in a pass; the labels must be the same)."""

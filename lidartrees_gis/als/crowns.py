@@ -52,7 +52,7 @@ def _rg_pass(v, top, step):
 _rg_pass_c = _jit(_rg_pass)
 
 
-def _rg_kernel(chm, seeds_r, seeds_c, top, hmin, step, labels):
+def _rg_kernel(chm, seeds_r, seeds_c, top, hmin, step, labels, q, nxt, buf):
     """Annex 2's passes over a FIFO queue, visiting in each pass only the queued cells that can
     act in it. Pass ``k`` has the threshold ``top - k step``. A queued cell acts in a pass when
     an unlabelled 4-neighbour is higher than the pass's threshold; after its visit its
@@ -60,23 +60,20 @@ def _rg_kernel(chm, seeds_r, seeds_c, top, hmin, step, labels):
     first goes below the highest of them (a neighbour labelled meanwhile only makes that visit
     idle). The cells of a pass are visited in queue order and the cells labelled in it join the
     end of the queue, as in Annex 2, so the labels are those of visiting every queued cell in
-    every pass."""
+    every pass. ``q`` (the flat cell of each queue position), ``nxt`` (the waiting positions of
+    a pass, as linked lists) and ``buf`` are work arrays of ``H W + n + 1`` integers (int32
+    where that fits: half the memory traffic of the visits)."""
     H, W = chm.shape
     n = seeds_r.shape[0]
-    cap = H * W + n + 1
-    qr = np.empty(cap, np.int64)
-    qc = np.empty(cap, np.int64)
-    nxt = np.empty(cap, np.int64)  # the waiting cells of a pass, as linked lists
-    buf = np.empty(cap, np.int64)
-    dr = np.array([-1, 1, 0, 0])
-    dc = np.array([0, 0, -1, 1])
+    lab = labels.ravel()
+    z = chm.ravel()
     last = 0  # the last pass: the lowest threshold above hmin
     while top - (last + 1) * step > hmin:
         last += 1
     for i in range(n):  # every seed is visited in the first pass (any order: sorted there)
-        labels[seeds_r[i], seeds_c[i]] = i + 1
-        qr[i] = seeds_r[i]
-        qc[i] = seeds_c[i]
+        cell = seeds_r[i] * W + seeds_c[i]
+        lab[cell] = i + 1
+        q[i] = cell
         nxt[i] = i - 1
     tail = n
     if last < 1:
@@ -104,20 +101,34 @@ def _rg_kernel(chm, seeds_r, seeds_c, top, hmin, step, labels):
             else:
                 break
             j += 1
-            r = qr[p]
-            c = qc[p]
-            lab = labels[r, c]
+            cell = q[p]
+            r = cell // W
+            c = cell - r * W
+            lb = lab[cell]
             wake = -np.inf
-            for d in range(4):
-                rr = r + dr[d]
-                cc = c + dc[d]
-                if rr < 0 or rr >= H or cc < 0 or cc >= W or labels[rr, cc] != 0:
+            for d in range(4):  # up, down, left, right
+                if d == 0:
+                    if r == 0:
+                        continue
+                    nb = cell - W
+                elif d == 1:
+                    if r == H - 1:
+                        continue
+                    nb = cell + W
+                elif d == 2:
+                    if c == 0:
+                        continue
+                    nb = cell - 1
+                else:
+                    if c == W - 1:
+                        continue
+                    nb = cell + 1
+                if lab[nb] != 0:
                     continue
-                v = chm[rr, cc]
+                v = z[nb]
                 if v > thr:
-                    labels[rr, cc] = lab
-                    qr[tail] = rr
-                    qc[tail] = cc
+                    lab[nb] = lb
+                    q[tail] = nb
                     tail += 1
                 elif v > wake:
                     wake = v
@@ -171,7 +182,10 @@ def region_growing(chm, rows, cols, *, step: float = 0.1, min_height: float = 2.
                          f"at least {(hmax - min_height) / 20_000:.3g} m (seed 000: 0.1 m), or check "
                          "the heights (a CHM in centimetres?)")
     fn = _rg_nb if HAVE_NUMBA else _rg_kernel
-    return fn(a, rows, cols, hmax, float(min_height), float(step), labels)
+    cap = a.size + rows.size + 1
+    it = np.int32 if cap < 2 ** 31 - 1 else np.int64
+    work = (np.empty(cap, it), np.empty(cap, it), np.empty(cap, it))
+    return fn(a, rows, cols, hmax, float(min_height), float(step), labels, *work)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -163,7 +163,7 @@ def bilinear(arr, spec: GridSpec, x, y):
     own first column, an integer), so a tile's grid and the whole area's give the same weights
     to the last bit: the heights above ground of ground points, which lie on the DTM, keep
     their sign (the pit-free CHM's first layer takes the points at or above 0)."""
-    from scipy import ndimage
+    from .._raster import sample_bilinear
 
     x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
     o = spec.origin_cells()
@@ -174,7 +174,7 @@ def bilinear(arr, spec: GridSpec, x, y):
         inv = 1.0 / spec.res
         col = (x * inv - o[0]) - 0.5
         row = ((o[1] + spec.height) - y * inv) - 0.5
-    return ndimage.map_coordinates(np.asarray(arr, np.float64), [row, col], order=1, mode="nearest")
+    return sample_bilinear(arr, row, col)
 
 
 class _Accumulators:
