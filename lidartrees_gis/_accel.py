@@ -117,13 +117,26 @@ def lowest(idx, x, y, z, cz, cx, cy, count) -> None:
     _lowest_nb(idx, x, y, z, cz, cx, cy, count)
 
 
-def _fill_mean8_py(out, empty, rows, cols, max_passes):
-    """Jacobi passes of :func:`lidartrees_gis.grid.fill_mean8` over the empty cells
-    ``(rows, cols)`` only (the list shrinks as they fill): each takes the mean of its 8
-    neighbours that were not empty before the pass. ``out`` and ``empty`` are updated in place;
-    returns the number of passes."""
+def _fill_mean8_py(out, empty, max_passes):
+    """Jacobi passes of :func:`lidartrees_gis.grid.fill_mean8` over the empty cells only (the
+    list, in row-major order, shrinks as they fill): each takes the mean of its 8 neighbours
+    that were not empty before the pass. ``out`` and ``empty`` are updated in place; returns
+    the number of passes."""
     h, w = out.shape
-    n = rows.shape[0]
+    n = 0
+    for r in range(h):
+        for c in range(w):
+            if empty[r, c]:
+                n += 1
+    rows = np.empty(n, np.int64)
+    cols = np.empty(n, np.int64)
+    n = 0
+    for r in range(h):
+        for c in range(w):
+            if empty[r, c]:
+                rows[n] = r
+                cols[n] = c
+                n += 1
     vals = np.empty(n)
     take = np.zeros(n, np.bool_)
     passes = 0

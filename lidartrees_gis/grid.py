@@ -290,9 +290,7 @@ def fill_mean8(grid: np.ndarray, *, max_passes: int | None = None, mask=None,
         return out
     total = int(empty.sum())
     if _accel.HAVE_NUMBA:  # the same passes, visiting only the cells still empty
-        rows, cols = np.nonzero(empty)
-        _accel._fill_mean8_nb(out, empty, rows.astype(np.int64), cols.astype(np.int64),
-                              int(max_passes or 0))
+        _accel._fill_mean8_nb(out, empty, int(max_passes or 0))
         as_progress(progress).update(1.0, "filling gaps")
         return out
     passes = 0

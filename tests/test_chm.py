@@ -330,3 +330,39 @@ def test_a_sub_box_has_the_chm_of_the_whole_away_from_its_edges(tmp_path):
     inner = (cx > core[0]) & (cx < core[2]) & (cy > core[1]) & (cy < core[3])
     assert inner.sum() > 9000 and np.array_equal(np.isnan(a[inner]), np.isnan(b[inner]))
     assert np.nanmax(np.abs(a[inner] - b[inner])) <= 1e-4
+
+
+@pytest.mark.parametrize("res", [0.5, 2.0])
+def test_the_trees_dtm_is_the_whole_dtm_within_the_data(tmp_path, res):
+    """``whole_dtm=False`` (the trees chain) leaves the terrain NaN only beyond the data: every
+    other surface, and the DTM within reach of the data, are those of the whole DTM."""
+    from pyproj import CRS
+
+    from lidartrees_gis.als.surfaces import SurfaceOptions, compute_surfaces
+    from lidartrees_gis.catalog.catalog import Catalog
+    from lidartrees_gis.catalog.source import TileSource
+    from lidartrees_gis.io.lasout import write_points
+
+    rng = np.random.default_rng(9)
+    n = 40_000
+    x, y = 600_000 + rng.random(n) * 120, 7_500_000 + rng.random(n) * 120
+    keep = ~((x > 600_050) & (y > 7_500_050))  # a 70 x 70 m corner without points
+    x, y = x[keep], y[keep]
+    ground = rng.random(x.size) < 0.3
+    z = 500 + 0.2 * (y - 7_500_000) + np.where(ground, 0.0, 3 + 15 * rng.random(x.size))
+    f = tmp_path / "corner.laz"
+    write_points(f, np.round(x, 2), np.round(y, 2), np.round(z, 2), crs=CRS.from_epsg(31983),
+                 classification=np.where(ground, 2, 1))
+    cat = Catalog.open(f)
+    kw = dict(keep_points=True)
+    a = compute_surfaces(TileSource(cat, cat.extent), res, SurfaceOptions(), **kw)
+    b = compute_surfaces(TileSource(cat, cat.extent), res, SurfaceOptions(), whole_dtm=False,
+                         **kw)
+    for k in ("chm", "heights", "returns", "dsm"):
+        assert np.array_equal(a[k], b[k], equal_nan=True), k
+    for i in range(3):
+        assert np.array_equal(a["points_above_ground"][i], b["points_above_ground"][i])
+    assert np.isfinite(a["dtm"]).all()
+    empty = np.isnan(b["dtm"])
+    assert empty.sum() > 0.15 * empty.size  # most of the empty corner
+    assert np.array_equal(a["dtm"][~empty], b["dtm"][~empty])

@@ -186,7 +186,7 @@ def test_traced_crown_outlines_equal_gdal_polygonize():
         a = crown_polygons(lab, spec, n)
         b = _crown_polygons_gdal(lab, spec, n)
         assert len(a) == len(b) == n
-        _, _, ring_lab, _, area = outline_rings(lab, n)
+        _, _, ring_lab, _, area, _ = outline_rings(lab, n)
         pieces = np.bincount(ring_lab[area > 0], minlength=n + 1)
         n_multi += int((pieces > 1).sum())
         for k, (p, q) in enumerate(zip(a, b), start=1):

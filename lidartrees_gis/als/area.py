@@ -205,7 +205,7 @@ def _smoothed_top(chm, res: float, params, cs) -> float:
 
 def window_canopy(box, area, res, surface, params):
     """:func:`window_measures` of the surfaces of one window (a task)."""
-    return window_measures(box_surfaces(area, box, res, surface), params)
+    return window_measures(box_surfaces(area, box, res, surface, whole_dtm=False), params)
 
 
 @dataclass(frozen=True)

@@ -71,13 +71,14 @@ def _is_edge(lab, r, c, d, k):
     return _lab_at(lab, r - 1, c - 1) == k and _lab_at(lab, r - 1, c) != k
 
 
-def _trace_py(lab, n, vr, vc, ring_lab, ring_end, ring_area):
+def _trace_py(lab, n, vr, vc, ring_lab, ring_end, ring_area, ring_pinch):
     """Every boundary ring of labels 1..n: its vertices (corners where it turns; ``vr, vc``,
     the first repeated at the end), label, end offset and signed area (cells; > 0 an outer
     ring). Rings start at the top side of the first cell of a run along a row; at a corner
     where two cells of one crown touch diagonally the ring turns left (round its own cell), so
-    the pieces are 4-connected, as GDAL's polygonize with connectivity 4. Returns the number
-    of rings, or -1 when the buffers are too small."""
+    the pieces are 4-connected, as GDAL's polygonize with connectivity 4, and ``ring_pinch``
+    says the ring passed such a corner (elsewhere a crown's rings share no vertex, so its
+    polygon is valid). Returns the number of rings, or -1 when the buffers are too small."""
     h, w = lab.shape
     used = np.zeros((h + 1) * (w + 1) * 4, np.uint8)
     nv = 0
@@ -96,6 +97,7 @@ def _trace_py(lab, n, vr, vc, ring_lab, ring_end, ring_area):
                 continue
             r, c, d = i, j + 1, 0
             m = 0
+            pinch = False
             while True:
                 used[((r * (w + 1)) + c) * 4 + d] = 1
                 if m == wr.shape[0]:
@@ -113,6 +115,8 @@ def _trace_py(lab, n, vr, vc, ring_lab, ring_end, ring_area):
                 r += _DR[d]
                 c += _DC[d]
                 if _is_edge(lab, r, c, _LEFT[d], k):
+                    if _is_edge(lab, r, c, _RIGHT[d], k):
+                        pinch = True  # the crown's cells touch diagonally here
                     d = _LEFT[d]
                 elif not _is_edge(lab, r, c, d, k):
                     d = _RIGHT[d]
@@ -139,6 +143,7 @@ def _trace_py(lab, n, vr, vc, ring_lab, ring_end, ring_area):
             ring_lab[nring] = k
             ring_end[nring] = nv
             ring_area[nring] = area2 // 2
+            ring_pinch[nring] = pinch
             nring += 1
     return nring
 
@@ -153,7 +158,8 @@ else:  # pragma: no cover - crown_polygons uses GDAL's polygonize then
 
 def outline_rings(labels, n: int):
     """The boundary rings of crowns 1..n of a label grid: ``(rows, cols, ring_label,
-    ring_end, ring_area)`` (corner coordinates, rings closed; area in cells, > 0 outer)."""
+    ring_end, ring_area, ring_pinch)`` (corner coordinates, rings closed; area in cells, > 0
+    outer; whether the ring passes a corner where the crown's cells touch diagonally)."""
     lab = np.ascontiguousarray(labels)
     if lab.dtype.kind not in "iu":
         lab = lab.astype(np.int64)
@@ -165,11 +171,12 @@ def outline_rings(labels, n: int):
     nr = int(min(np.count_nonzero(lab), cap)) + 1
     vr, vc = np.empty(cap, np.int64), np.empty(cap, np.int64)
     ring_lab, ring_end, ring_area = (np.empty(nr, np.int64) for _ in range(3))
-    k = _trace_nb(lab, int(n), vr, vc, ring_lab, ring_end, ring_area)
+    ring_pinch = np.zeros(nr, np.bool_)
+    k = _trace_nb(lab, int(n), vr, vc, ring_lab, ring_end, ring_area, ring_pinch)
     if k < 0:  # pragma: no cover - the buffers are sized for the worst case
         raise RuntimeError("crown outlines: buffers too small")
     nv = int(ring_end[k - 1]) if k else 0
-    return vr[:nv], vc[:nv], ring_lab[:k], ring_end[:k], ring_area[:k]
+    return vr[:nv], vc[:nv], ring_lab[:k], ring_end[:k], ring_area[:k], ring_pinch[:k]
 
 
 def crown_polygons(labels, spec: GridSpec, n: int) -> list:
@@ -184,7 +191,7 @@ def crown_polygons(labels, spec: GridSpec, n: int) -> list:
     if not HAVE_NUMBA:
         return _crown_polygons_gdal(labels, spec, n)
     out = [None] * n
-    vr, vc, ring_lab, ring_end, ring_area = outline_rings(labels, n)
+    vr, vc, ring_lab, ring_end, ring_area, ring_pinch = outline_rings(labels, n)
     if ring_lab.size == 0:
         return out
     x = spec.left + vc * spec.res
@@ -203,15 +210,18 @@ def crown_polygons(labels, spec: GridSpec, n: int) -> list:
     labs = ring_lab[order]
     keys = np.unique(labs)
     polys = shapely.polygons(rings[order], indices=np.searchsorted(keys, labs))
-    bad = set((keys[~shapely.is_valid(polys)] - 1).tolist())
+    # only a crown with a diagonal touch can be invalid (a ring touching itself there)
+    check = np.flatnonzero(np.isin(keys, ring_lab[ring_pinch]))
+    bad = set((keys[check[~shapely.is_valid(polys[check])]] - 1).tolist())
     for g, k in zip(polys.tolist(), keys.tolist()):
         out[k - 1] = g
     for k in np.flatnonzero(n_shells > 1):  # several pieces: the largest, with its holes
         out[k - 1] = _largest_piece(rings, ring_lab == k, ring_area)
         if not out[k - 1].is_valid:  # pragma: no cover
             bad.add(k - 1)
-    for i in bad:  # pragma: no cover - traced outlines are valid; kept as a guard
-        g = shapely.make_valid(out[i])
+    bad = sorted(bad)
+    fixed = shapely.make_valid(np.array([out[i] for i in bad], dtype=object)) if bad else []
+    for i, g in zip(bad, fixed):  # a ring that touches itself: split where it touches
         out[i] = g if g.geom_type == "Polygon" else max(
             (p for p in getattr(g, "geoms", [g]) if p.geom_type == "Polygon"), key=lambda p: p.area)
     return out

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from scipy import ndimage
 
 from ..errors import InputError
 from ..grid import GridAccumulator, GridSpec, LowestPoints, check_resolution, data_footprint, \
@@ -234,10 +235,11 @@ def _without_low(acc, x, y, z, drop: bool):
 
 
 def _terrain(src, method: DtmMethod, acc: _Accumulators, spec: GridSpec, dsm_raw, fill, prog,
-             stats: SurfaceStats, drop_low: bool = True):
+             stats: SurfaceStats, drop_low: bool = True, where=None):
     """The DTM by ``method``: ``(dtm, kind)`` (``kind`` what ``auto`` chose: the area's choice
     when ``stats`` says, unless this box holds too few ground points). ``drop_low``: leave the
-    isolated low terrain points out (:func:`_without_low`)."""
+    isolated low terrain points out (:func:`_without_low`); ``where``: the cells a TIN DTM
+    must fill (default all)."""
     kind = method.kind
     if kind == "auto":
         has_ground = int((acc.ground.count > 0).sum()) >= 3
@@ -253,10 +255,10 @@ def _terrain(src, method: DtmMethod, acc: _Accumulators, spec: GridSpec, dsm_raw
         if gx.size == 0:
             raise InputError(f"{src.path}: -dtm ground: the file has no ground (class 2) points; "
                              "use -dtm auto, lowest:R, kp or a DTM GeoTIFF")
-        return interpolate_tin(*_without_low(acc, gx, gy, gz, drop_low), spec), kind
+        return interpolate_tin(*_without_low(acc, gx, gy, gz, drop_low), spec, where=where), kind
     if kind == "lowest":
         pts = acc.lowest.points(reference=stats.lowest_median)
-        return interpolate_tin(*_without_low(acc, *pts, drop_low), spec), kind
+        return interpolate_tin(*_without_low(acc, *pts, drop_low), spec, where=where), kind
     if kind == "kp":
         from ..ground.chain import dtm_from_ground, ground_points
         from ..ground.filter import KrausPfeifer
@@ -316,7 +318,7 @@ def _canopy(acc: _Accumulators, opts: SurfaceOptions, spec: GridSpec, dtm, dsm_r
 
 def compute_surfaces(src, res: float, opts: SurfaceOptions | None = None, *,
                      stats: SurfaceStats | None = None, keep_points: bool = False,
-                     progress=None) -> dict:
+                     whole_dtm: bool = True, progress=None) -> dict:
     """DSM, DTM and CHM of a point source on one aligned grid.
 
     Parameters
@@ -339,6 +341,8 @@ def compute_surfaces(src, res: float, opts: SurfaceOptions | None = None, *,
     ``outlier_cells``, ``outlier_points``, ``stats`` (the :class:`SurfaceStats` used) and
     ``density`` (points per m² over the data footprint); with ``keep_points``, ``points``:
     every point's ``(x, y, height above the DTM)`` (plantation mode looks under the canopy).
+    ``whole_dtm=False``: the DTM only within the data footprint (NaN beyond it, where the
+    other surfaces are NaN anyway; the trees need no more), not extrapolated to every cell.
     """
     opts = opts or SurfaceOptions()
     stats = stats or SurfaceStats()
@@ -361,8 +365,11 @@ def compute_surfaces(src, res: float, opts: SurfaceOptions | None = None, *,
     footprint = data_footprint(occupied, spec.res, reach)
     prog.update(0.82, "terrain")
     acc.low_points = 0
+    # the footprint and the cells around it (a point's bilinear terrain height reads the four
+    # cell centres around it)
+    near = None if whole_dtm else ndimage.binary_dilation(footprint, np.ones((3, 3), bool))
     dtm, kind = _terrain(src, method, acc, spec, dsm_raw, opts.fill, prog, stats,
-                         drop_low=opts.outliers)
+                         drop_low=opts.outliers, where=near)
     check_cancel(prog)
     chm_raw = dsm_raw - dtm
     out_cells, ceiling = np.zeros(spec.shape, bool), None
@@ -400,7 +407,8 @@ def compute_surfaces(src, res: float, opts: SurfaceOptions | None = None, *,
 
 
 def box_surfaces(area, box, res: float, opts: SurfaceOptions, *, stats=None,
-                 keep_points: bool = False, progress=None) -> dict | None:
+                 keep_points: bool = False, whole_dtm: bool = True,
+                 progress=None) -> dict | None:
     """The surfaces of the part of ``area`` inside ``box``: a
     :class:`~lidartrees_gis.catalog.catalog.Catalog` (points, :func:`compute_surfaces`) or a
     :class:`~lidartrees_gis.catalog.raster.RasterArea` (a CHM GeoTIFF, its window). None when
@@ -415,7 +423,7 @@ def box_surfaces(area, box, res: float, opts: SurfaceOptions, *, stats=None,
         return None
     try:
         return compute_surfaces(src, res, opts, stats=stats, keep_points=keep_points,
-                                progress=progress)
+                                whole_dtm=whole_dtm, progress=progress)
     except InputError as exc:
         if "no points" in str(exc):
             return None

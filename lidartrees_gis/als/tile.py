@@ -152,7 +152,7 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
     prog = as_progress(progress)
     s = surfaces if surfaces is not None else box_surfaces(
         area, tile.box, plan.res, surface, stats=plan.stats,
-        keep_points=params.looks_at_planting, progress=prog)
+        keep_points=params.looks_at_planting, whole_dtm=False, progress=prog)
     if s is None:
         return _empty_trees(tile, plan.res)
     spec = s["spec"]
