@@ -34,7 +34,7 @@ from .area import AreaPlan, one_tile_area, plan_area
 from .sinks import GpkgTreeLayers, QuickLook, Tally, TreeLayers, TreesSummary, TreexCsv
 from .surfaces import SurfaceOptions, box_surfaces
 from .stands import StandsTally, write_stand_csv
-from .tile import tile_trees, warn_sparse_plantation
+from .tile import tile_first_tops, tile_trees, warn_sparse_plantation
 from .trees import TreeParams, auto_smoothing
 
 
@@ -228,10 +228,14 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
                 contextlib.ExitStack() as stack:
             sinks = _trees_sinks(stack, input, output, area, p, plan, surface, out, csv, chm_out,
                                  png, stands, stand_csv)
-            args = (area, p, plan, surface, bool(chm_out or png), stands)
+            grids, start = None, 0.45
+            if p.spacing is not None and ready is None:  # plantation mode over tiles
+                grids, start = _area_grids(runner, area, p, plan, surface, stands,
+                                           SubProgress(prog, 0.45, 0.7)), 0.7
+            args = (area, p, plan, surface, bool(chm_out or png), stands, grids)
             n = len(plan.tiles)
             for done, r in enumerate(run_tiles(runner, tile_trees, plan, args, ready,
-                                               SubProgress(prog, 0.45, 0.95)), 1):
+                                               SubProgress(prog, start, 0.95)), 1):
                 summary.add(r)
                 if tally is not None:
                     tally.add(r)
@@ -260,6 +264,25 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
     if stands is not None:
         res.update(_stands_result(stands, srows, tally, stand_csv))
     return check_failed(runner, res)
+
+
+def _area_grids(runner, area, p: TreeParams, plan: AreaPlan, surface, stands, progress) -> dict:
+    """Plantation mode over tiles: each stand's planting lattice fitted once, on the tops every
+    tile finds first in its core (:func:`~lidartrees_gis.als.tile.tile_first_tops`), as a run
+    on one file fits it on all its tops: the tiles then count their positions on the same
+    lattice, so a stand's counts do not depend on the tiling (a lattice per tile shifted by a
+    few centimetres counted the positions along the tiles' edges twice or not at all). Costs
+    a first pass over the tiles' surfaces."""
+    from .positions import fit_stand_grids
+
+    # labelled apart from the trees' tiles: nothing kept for -resume, and a tile set aside
+    # (-on_error skip) is told as left out of the lattices
+    found = list(runner.map(tile_first_tops, list(plan.tiles), (area, p, plan, surface, stands),
+                            progress=progress, inner_progress=True, label="lattice tile"))
+    if not found:
+        return {"all": None}
+    x, y, z = (np.concatenate([np.asarray(r[k]) for r in found]) for k in ("x", "y", "zone"))
+    return fit_stand_grids(x, y, z if stands is not None else None, p.spacing, whole=True)
 
 
 def _stands_result(stands, rows, tally, stand_csv) -> dict:

@@ -8,8 +8,8 @@ import numpy as np
 from .stocking import PlantingGrid, fit_planting_grid, stand_mask, stocking
 
 
-#: a stand with fewer tops than this in a tile (with its buffer) takes the lattice fitted to all
-#: the tile's tops instead of its own (a corner of a stand)
+#: a stand with fewer tops than this takes the lattice fitted to all the tops instead of its own
+#: (a corner of a stand)
 STAND_FIT_MIN_TOPS = 30
 
 
@@ -20,14 +20,77 @@ def _empty(n_tops: int) -> dict:
     return {"grid": None, "spacing": None, "expected": 0, "stocked": 0, "missing": 0, "extra": 0,
             "planted_area_ha": 0.0, "stocking_pct": float("nan"), "planted_per_ha": float("nan"),
             "gaps_x": e, "gaps_y": e, "gaps_i": e.astype(np.int64), "gaps_j": e.astype(np.int64),
-            "gaps_row": e.astype(np.int64), "gaps_plant": e.astype(np.int64),
+            "gaps_row": e.astype(np.int64), "gaps_plant": e.astype(np.int64), "look_x": e,
+            "look_y": e,
             "gaps_zone": e.astype(np.int64), "tops_row": z, "tops_plant": z.copy(),
             "shares": np.zeros(n_tops, bool),
             "numbering": "", "zones": {}}
 
 
+def _canonical(tx, ty):
+    """The tops in an order that does not depend on how they were found (a tile's or the whole
+    area's): by position, rounded to the millimetre."""
+    return np.lexsort((np.round(ty, 3), np.round(tx, 3)))
+
+
+def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None = None, *,
+                    zones=None, whole: bool = False) -> dict:
+    """The planting lattice of every stand: ``{zone: PlantingGrid or None}``, and ``"all"``
+    (the lattice of all the tops: that of an area without stands, and of a stand with too few
+    tops of its own) where one needs it or ``whole`` asks for it.
+
+    ``top_zone``: each top's stand index (-1 outside every stand), or None (no stands);
+    ``zones``: the stands wanted (default: those of the tops). A stand is fitted on its own tops
+    when it has :data:`STAND_FIT_MIN_TOPS` of them
+    (:data:`~lidartrees_gis.als.stocking.PLANTING_MIN_TREES` with ``spacing="auto"``, whose
+    spacing is found per stand by :func:`~lidartrees_gis.als.stocking.detect_planting`);
+    ``grid``: the lattice of all the tops when already found. The tops are taken in an order
+    of their own (:func:`_canonical`), so a whole area's tops and the same tops gathered from
+    its tiles give the same lattices: a run in tiles fits each stand once, from all its tiles'
+    tops, and every tile counts its positions on that lattice.
+    """
+    from .stocking import PLANTING_MIN_TREES, detect_planting
+
+    tx, ty = np.asarray(top_x, float), np.asarray(top_y, float)
+    o = _canonical(tx, ty)
+    tx, ty = tx[o], ty[o]
+    auto = isinstance(spacing, str)
+    out = {}
+
+    def fit(x, y):
+        return detect_planting(x, y) if auto else fit_planting_grid(x, y, *spacing)
+
+    def all_tops():
+        if "all" not in out:
+            out["all"] = grid if grid is not None else fit(tx, ty)
+        return out["all"]
+
+    if top_zone is None or whole:
+        all_tops()
+    if top_zone is None:
+        return out
+    zone = np.asarray(top_zone)[o]
+    for k in (np.unique(zone) if zones is None else zones):
+        own = zone == k
+        enough = own.sum() >= (PLANTING_MIN_TREES if auto else STAND_FIT_MIN_TOPS)
+        g = fit(tx[own], ty[own]) if enough else None
+        out[int(k)] = g if g is not None else all_tops()
+    return out
+
+
+def top_zones(top_x, top_y, zone, spec) -> np.ndarray:
+    """The stand index (``zone``, per cell of ``spec``) of each top; -1 outside the grid."""
+    tx, ty = np.asarray(top_x, float), np.asarray(top_y, float)
+    r, c = spec.cell_index(tx, ty)
+    inside = (r >= 0) & (r < spec.height) & (c >= 0) & (c < spec.width)
+    out = np.full(tx.size, -1, np.int64)
+    out[inside] = np.asarray(zone)[r[inside], c[inside]]
+    return out
+
+
 def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: float = 2.0,
-                      grid: PlantingGrid | None = None, within=None) -> dict:
+                      grid: PlantingGrid | None = None, within=None,
+                      grids: dict | None = None) -> dict:
     """:func:`stocking` with a planting lattice fitted per stand.
 
     ``zone``: the stand index of every cell of ``spec`` (-1 outside every stand; see
@@ -40,42 +103,29 @@ def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: flo
     and the tops' row and plant numbers of every zone) with ``gaps_zone``, ``spacing`` and
     ``zones`` (per zone index: ``expected, stocked, missing, extra, planted_area_ha, azimuth,
     spacing``); ``grid`` and ``spacing`` are those of the zone with the most positions.
+    ``grids``: the lattices (:func:`fit_stand_grids`) when already fitted (by default fitted
+    here, on these tops); returned as ``grids``.
     """
-    from .stocking import PLANTING_MIN_TREES, detect_planting
-
     tx, ty = np.asarray(top_x, float), np.asarray(top_y, float)
-    auto = isinstance(spacing, str)
     zoned = zone is not None and bool((np.asarray(zone) >= 0).any())
     zone = np.asarray(zone) if zoned else np.full(spec.shape, -1, np.int32)
-    r, c = spec.cell_index(tx, ty)
-    inside = (r >= 0) & (r < spec.height) & (c >= 0) & (c < spec.width)
-    top_zone = np.full(tx.size, -1, np.int64)
-    top_zone[inside] = zone[r[inside], c[inside]]
-    cache, masks = {}, {}
-
-    def tile_grid():
-        if "g" not in cache:
-            cache["g"] = grid if grid is not None else (
-                detect_planting(tx, ty) if auto else fit_planting_grid(tx, ty, *spacing))
-        return cache["g"]
+    top_zone = top_zones(tx, ty, zone, spec)
+    a = np.asarray(chm, float)
+    present = np.unique(zone[np.isfinite(a) & (a >= min_height)]).tolist()
+    if grids is None:
+        grids = fit_stand_grids(tx, ty, top_zone if zoned else None, spacing, grid,
+                                zones=present if zoned else None)
+    masks = {}
 
     def planted(sp):
         if sp not in masks:
             masks[sp] = stand_mask(chm, spec.res, *sp, min_height=min_height)
         return masks[sp]
 
-    a = np.asarray(chm, float)
     parts = {}
-    for k in np.unique(zone[np.isfinite(a) & (a >= min_height)]).tolist():
+    for k in present:
         own = top_zone == k
-        if not zoned:
-            g = tile_grid()
-        elif auto:
-            g = detect_planting(tx[own], ty[own]) if own.sum() >= PLANTING_MIN_TREES else None
-            g = g if g is not None else tile_grid()
-        else:
-            g = fit_planting_grid(tx[own], ty[own], *spacing) \
-                if own.sum() >= STAND_FIT_MIN_TOPS else tile_grid()
+        g = grids[k] if k in grids else grids["all"]
         if g is None:
             continue
         sp = (g.row_spacing, g.tree_spacing)
@@ -83,12 +133,13 @@ def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: flo
                             planted=planted(sp) & (zone == k), own=own if zoned else None)
         parts[k]["spacing"] = sp
     if not parts:
-        return _empty(tx.size)
+        return {**_empty(tx.size), "grids": grids}
     main = max(parts.values(), key=lambda p: p["expected"])
     out = {k: sum(p[k] for p in parts.values()) for k in ("expected", "stocked", "missing",
                                                            "extra", "planted_area_ha")}
     cat = {k: np.concatenate([p[k] for p in parts.values()])
-           for k in ("gaps_x", "gaps_y", "gaps_i", "gaps_j", "gaps_row", "gaps_plant")}
+           for k in ("gaps_x", "gaps_y", "gaps_i", "gaps_j", "gaps_row", "gaps_plant",
+                     "look_x", "look_y")}
     tops_row = np.zeros(tx.size, np.int64)
     tops_plant = np.zeros(tx.size, np.int64)
     shares = np.zeros(tx.size, bool)
@@ -107,7 +158,8 @@ def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: flo
                                          for k, p in parts.items()]),
                zones={k: {**{f: p[f] for f in ("expected", "stocked", "missing", "extra",
                                                "planted_area_ha", "spacing")},
-                          "azimuth": p["grid"].azimuth} for k, p in parts.items()})
+                          "azimuth": p["grid"].azimuth} for k, p in parts.items()},
+               grids=grids)
     return out
 
 

@@ -223,6 +223,8 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
     positions, tops and planted cells inside this box are counted and reported (a tile's core).
     ``planted``: the planted cells when already known (:func:`stand_mask`, e.g. cut to one
     stand); ``own``: the tops counted as extra when they take no position (default all).
+    ``look_x, look_y``: every empty position, inside the box or not (a tree looked for at an
+    empty position beyond a tile's core may stand inside it).
     """
     R, C = spacing
     tx = np.asarray(top_x, float)
@@ -269,6 +271,7 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
                                        zip(np.round(fi0).astype(int).tolist(),
                                            np.round(fj0).astype(int).tolist())]
     planted_cells = float(mask.sum())
+    look_x, look_y = nx[gaps], ny[gaps]  # every empty position, the box's or not
     if within is not None:  # count only what lies in the box
         x0, y0, x1, y1 = within
         inb = (nx >= x0) & (nx < x1) & (ny >= y0) & (ny < y1)
@@ -292,7 +295,7 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
             "gaps_x": nx[gaps], "gaps_y": ny[gaps], "gaps_i": ii[gaps].astype(np.int64),
             "gaps_j": jj[gaps].astype(np.int64), "gaps_row": row_no[gaps],
             "gaps_plant": plant_no[gaps], "tops_row": tops_row, "tops_plant": tops_plant,
-            "numbering": numbering, "shares": shares}
+            "numbering": numbering, "shares": shares, "look_x": look_x, "look_y": look_y}
 
 
 #: plantation mode's second look at an empty planting position (:func:`gap_tops`): the apex may

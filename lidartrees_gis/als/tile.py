@@ -56,7 +56,8 @@ def core_window(spec: GridSpec, core) -> tuple:
 
 
 def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=None, *,
-                         returns=None, within=None, zone=None, points=None) -> dict:
+                         returns=None, within=None, zone=None, points=None,
+                         grids=None) -> dict:
     """:func:`lidartrees_gis.als.trees.detect_trees` on a CHM, plus the stocking of the fitted
     planting grid in plantation mode (``params.spacing``).
 
@@ -72,7 +73,9 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
     (:func:`lidartrees_gis.als.stands.zones`), each stand fitted its own lattice
     (:func:`lidartrees_gis.als.positions.stocking_by_stand`); ``points``: every return's
     ``(x, y, height above ground)``, to tell the empty positions holding a suppressed tree
-    from the missing ones (:func:`lidartrees_gis.als.positions.classify_gaps`).
+    from the missing ones (:func:`lidartrees_gis.als.positions.classify_gaps`); ``grids``:
+    each stand's lattice (:func:`lidartrees_gis.als.positions.fit_stand_grids`) when fitted on
+    the whole area's tops (a run in tiles), by default fitted on the tops found here.
     """
     from .positions import classify_gaps, stocking_by_stand
     from .stocking import detect_planting, gap_tops
@@ -92,15 +95,20 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
         return result
     as_progress(progress).update(0.75, "planting grid")
     t = result["table"]
+    # plantation mode: each stand's lattice fitted once, on the tops found first (or given:
+    # the area's, fitted on every tile's tops), and kept while the tops change below
     st = stocking_by_stand(t["x"], t["y"], arr, spec, spacing, zone if given else None,
-                           min_height=params.min_height, grid=grid, within=within)
+                           min_height=params.min_height, grid=grid, within=within,
+                           grids=grids if given else None)
     lowest = params.min_height  # the lowest tree plantation mode adds
     if given:  # one tree per planting position, none in the understorey
         result, st, lowest = _one_per_position(result, st, arr, spec, params, heights, zone,
                                                within)
         t = result["table"]
-    if returns is not None and st["missing"] and st.get("spacing") is not None:
-        rows, cols = gap_tops(st["gaps_x"], st["gaps_y"], returns, result["smoothed"], spec,
+    # the second look at every empty position of the tile, its core's or not: the apex of a
+    # tree at a position just beyond the core may stand inside it
+    if returns is not None and st["look_x"].size and st.get("spacing") is not None:
+        rows, cols = gap_tops(st["look_x"], st["look_y"], returns, result["smoothed"], spec,
                               st["spacing"], top_x=t["x"], top_y=t["y"], min_height=lowest)
         added = int(rows.size)
         if added:
@@ -114,7 +122,8 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
             if given:
                 t = result["table"]
                 st = stocking_by_stand(t["x"], t["y"], arr, spec, spacing, zone,
-                                       min_height=params.min_height, within=within)
+                                       min_height=params.min_height, within=within,
+                                       grids=st["grids"])
     hd = _dominant_height(result, arr, spec, params)
     if given:  # the stocking report (gaps layer) is for plantation mode only
         result["stocking"] = classify_gaps(st, points, st["spacing"], hd, params.min_height)
@@ -138,12 +147,35 @@ def _empty_trees(tile: Tile, res: float) -> dict:
     return out
 
 
+def tile_first_tops(tile: Tile, area, params: TreeParams, plan: AreaPlan,
+                    surface: SurfaceOptions, stands=None, progress=None) -> dict:
+    """Plantation mode's first pass over an area in tiles: the tops the detection finds first
+    in the tile's core (before plantation mode keeps one per position), with their stand
+    index: ``{"x", "y", "zone"}``. Each stand's lattice is fitted on all of them
+    (:func:`lidartrees_gis.als.positions.fit_stand_grids`), as one file's run fits it on its
+    own, so the tiles count positions on one lattice per stand."""
+    from .positions import top_zones
+    from .stands import zones
+
+    s = box_surfaces(area, tile.box, plan.res, surface, stats=plan.stats, progress=progress)
+    if s is None:
+        return {"x": np.empty(0), "y": np.empty(0), "zone": np.empty(0, np.int64)}
+    t = detect_trees(s["chm"], s["spec"], params, heights=s["heights"])["table"]
+    core = tile.in_core(t["x"], t["y"])
+    x, y = np.asarray(t["x"])[core], np.asarray(t["y"])[core]
+    zone = zones(stands, s["spec"]) if stands is not None else None
+    z = top_zones(x, y, zone, s["spec"]) if zone is not None else np.full(x.size, -1, np.int64)
+    return {"x": x, "y": y, "zone": z}
+
+
 def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: SurfaceOptions,
-               send_chm: bool = False, stands=None, surfaces=None, progress=None) -> dict:
+               send_chm: bool = False, stands=None, grids=None, surfaces=None,
+               progress=None) -> dict:
     """The trees of one tile: the tops in its core with their whole crowns (WKB), their
     measures, the plantation counts of its core and, with ``send_chm``, its core CHM.
     ``stands``: :class:`lidartrees_gis.als.stands.Stands`: each tree's stand, each stand's
-    cells and (plantation mode) its own lattice's counts in the core. ``surfaces``: the tile's
+    cells and (plantation mode) its own lattice's counts in the core; ``grids``: each stand's
+    lattice fitted on the whole area (:func:`tile_first_tops`). ``surfaces``: the tile's
     surfaces when they are already computed."""
     import shapely
 
@@ -163,7 +195,7 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
     if params.looks_at_planting:
         r = detect_with_stocking(s["chm"], spec, params, heights=s["heights"],
                                  returns=s["returns"], progress=prog, zone=zone,
-                                 points=s.get("points_above_ground"),
+                                 points=s.get("points_above_ground"), grids=grids,
                                  within=None if whole or params.spacing is None else tile.core)
     else:
         r = detect_trees(s["chm"], spec, params, heights=s["heights"])
@@ -251,7 +283,7 @@ def _one_per_position(result, st, arr, spec, params: TreeParams, heights, zone, 
     result["dropped_tops"] = int(drop.sum())
     t = result["table"]
     st = stocking_by_stand(t["x"], t["y"], arr, spec, params.spacing, zone,
-                           min_height=params.min_height, within=within)
+                           min_height=params.min_height, within=within, grids=st["grids"])
     return result, st, lowest
 
 
