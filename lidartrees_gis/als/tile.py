@@ -157,7 +157,8 @@ def tile_first_tops(tile: Tile, area, params: TreeParams, plan: AreaPlan,
     from .positions import top_zones
     from .stands import zones
 
-    s = box_surfaces(area, tile.box, plan.res, surface, stats=plan.stats, progress=progress)
+    s = box_surfaces(area, tile.box, plan.res, surface, stats=plan.stats, whole_dtm=False,
+                     progress=progress)
     if s is None:
         return {"x": np.empty(0), "y": np.empty(0), "zone": np.empty(0, np.int64)}
     t = detect_trees(s["chm"], s["spec"], params, heights=s["heights"])["table"]
