@@ -69,21 +69,28 @@ def within_distance(occupied, res: float, distance: float) -> np.ndarray:
     return out
 
 
-def _sample_py(grid, row, col, out):
-    """Bilinear value of cell-centre ``grid`` at fractional (row, col), edges clamped."""
+def _bilinear_at_py(grid, fr, fc):
+    """Bilinear value of cell-centre ``grid`` at fractional row ``fr`` and column ``fc`` (0 =
+    the first cell's centre), edges clamped. The ground filter's residuals use it too."""
     h, w = grid.shape
+    r0 = min(max(int(math.floor(fr)), 0), h - 1)
+    c0 = min(max(int(math.floor(fc)), 0), w - 1)
+    r1 = min(r0 + 1, h - 1)
+    c1 = min(c0 + 1, w - 1)
+    ty = min(max(fr - r0, 0.0), 1.0)
+    tx = min(max(fc - c0, 0.0), 1.0)
+    t = grid[r0, c0] * (1.0 - tx) + grid[r0, c1] * tx
+    b = grid[r1, c0] * (1.0 - tx) + grid[r1, c1] * tx
+    return t * (1.0 - ty) + b * ty
+
+
+bilinear_at = _jit(_bilinear_at_py) or _bilinear_at_py
+
+
+def _sample_py(grid, row, col, out):
+    """:func:`bilinear_at` at every (row, col)."""
     for i in range(row.shape[0]):
-        fr = row[i]
-        fc = col[i]
-        r0 = min(max(int(math.floor(fr)), 0), h - 1)
-        c0 = min(max(int(math.floor(fc)), 0), w - 1)
-        r1 = min(r0 + 1, h - 1)
-        c1 = min(c0 + 1, w - 1)
-        ty = min(max(fr - r0, 0.0), 1.0)
-        tx = min(max(fc - c0, 0.0), 1.0)
-        t = grid[r0, c0] * (1.0 - tx) + grid[r0, c1] * tx
-        b = grid[r1, c0] * (1.0 - tx) + grid[r1, c1] * tx
-        out[i] = t * (1.0 - ty) + b * ty
+        out[i] = bilinear_at(grid, row[i], col[i])
 
 
 _sample_nb = _jit(_sample_py)

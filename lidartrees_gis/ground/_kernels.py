@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._accel import HAVE_NUMBA, _jit
+from .._raster import bilinear_at
 
 
 # ---------------------------------------------------------------------------------------------
@@ -108,19 +109,8 @@ def plane_surface(idx, dx, dy, z, w, n, res):
 # residuals to the bilinear surface, and the weights
 def _residuals_py(grid, x, y, z, left, top, res, v):
     """v = z - bilinear interpolation of cell-centre values (edges clamped)."""
-    h, wd = grid.shape
     for i in range(x.shape[0]):
-        fc = (x[i] - left) / res - 0.5
-        fr = (top - y[i]) / res - 0.5
-        c0 = min(max(int(np.floor(fc)), 0), wd - 1)
-        r0 = min(max(int(np.floor(fr)), 0), h - 1)
-        c1 = min(c0 + 1, wd - 1)
-        r1 = min(r0 + 1, h - 1)
-        tx = min(max(fc - c0, 0.0), 1.0)
-        ty = min(max(fr - r0, 0.0), 1.0)
-        t = grid[r0, c0] * (1 - tx) + grid[r0, c1] * tx
-        b = grid[r1, c0] * (1 - tx) + grid[r1, c1] * tx
-        v[i] = z[i] - (t * (1 - ty) + b * ty)
+        v[i] = z[i] - bilinear_at(grid, (top - y[i]) / res - 0.5, (x[i] - left) / res - 0.5)
 
 
 def _weights_py(v, g, w, a, b, out):
