@@ -29,8 +29,8 @@ INT_FIELDS = ("tree_id", "n_cells", "row_number", "plant_number", "stand", "supp
 
 #: plantation mode warns below this point density (points/m² of the area): planted trees lower
 #: than their in-row neighbours are often missed and empty positions misread (measured on
-#: benchmarks/_family.py's stands: stocking 4.7 points under the truth and 43 % of the reported
-#: gaps true at 2 points/m², +0.3 points and 88 % at 4); a delivery of 4 pts/m² measures 3.9-4.0
+#: benchmarks/_family.py's stands: stocking 4.8 points under the truth and 43 % of the reported
+#: gaps true at 2 points/m², -0.1 points and 86 % at 4); a delivery of 4 pts/m² measures 3.9-4.0
 PLANTATION_MIN_DENSITY = 3.5
 
 
@@ -41,8 +41,8 @@ def warn_sparse_plantation(density: float) -> None:
             f"{density:.1f} points/m²: below {PLANTATION_MIN_DENSITY:g} points/m² planted "
             "trees lower than their neighbours are often missed and the empty positions "
             "misread, so the stocking and the gaps are unreliable (measured on synthetic "
-            "stands: at 2 points/m² the stocking 4.7 points under the truth and 43 % of the "
-            "reported gaps true; at 4 points/m² +0.3 points and 88 %)"), stacklevel=3)
+            "stands: at 2 points/m² the stocking 4.8 points under the truth and 43 % of the "
+            "reported gaps true; at 4 points/m² -0.1 points and 86 %)"), stacklevel=3)
 
 
 def core_window(spec: GridSpec, core) -> tuple:
