@@ -108,6 +108,11 @@ def sample_bilinear(grid, row, col) -> np.ndarray:
         out = np.empty(row.shape[0])
         _sample_nb(g, row, col, out)
         return out
+    return bilinear_np(g, row, col)
+
+
+def bilinear_np(g, row, col) -> np.ndarray:
+    """:func:`bilinear_at` at every (row, col), numpy (the same operations)."""
     h, w = g.shape
     r0 = np.clip(np.floor(row), 0, h - 1).astype(np.int64)
     c0 = np.clip(np.floor(col), 0, w - 1).astype(np.int64)

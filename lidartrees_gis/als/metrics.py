@@ -222,9 +222,16 @@ def crown_polygons(labels, spec: GridSpec, n: int) -> list:
     bad = sorted(bad)
     fixed = shapely.make_valid(np.array([out[i] for i in bad], dtype=object)) if bad else []
     for i, g in zip(bad, fixed):  # a ring that touches itself: split where it touches
-        out[i] = g if g.geom_type == "Polygon" else max(
-            (p for p in getattr(g, "geoms", [g]) if p.geom_type == "Polygon"), key=lambda p: p.area)
+        out[i] = _largest_polygon(g)
     return out
+
+
+def _largest_polygon(g):
+    """``g`` if a polygon, else the largest polygon in it (a repaired or united crown)."""
+    if g.geom_type == "Polygon":
+        return g
+    return max((p for p in getattr(g, "geoms", [g]) if p.geom_type == "Polygon"),
+               key=lambda p: p.area)
 
 
 def _largest_piece(rings, mine, ring_area):
@@ -288,7 +295,5 @@ def _crown_polygons_gdal(labels, spec: GridSpec, n: int) -> list:
     for k in check:  # and of a crown that is not one polygon, its largest polygon
         g = out[k - 1] if 1 <= k <= n else None
         if g is not None and g.geom_type != "Polygon" and hasattr(g, "geoms"):
-            if not g.is_valid:
-                g = shapely.make_valid(g)
-            out[k - 1] = max((p for p in g.geoms if p.geom_type == "Polygon"), key=lambda p: p.area)
+            out[k - 1] = _largest_polygon(g if g.is_valid else shapely.make_valid(g))
     return out

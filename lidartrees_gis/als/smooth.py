@@ -56,12 +56,6 @@ def gaussian_1d(sigma_cells: float) -> np.ndarray:
     return g / g.sum()
 
 
-def gaussian_kernel(sigma_cells: float) -> np.ndarray:
-    """Normalised 2-D Gaussian kernel of standard deviation ``sigma_cells``, radius 3 sigma."""
-    g = gaussian_1d(sigma_cells)
-    return np.outer(g, g)
-
-
 def convolve_nan(image: np.ndarray, kernel) -> np.ndarray:
     """Convolution that ignores NaN cells (normalised by the weights of valid cells).
 

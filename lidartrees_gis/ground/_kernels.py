@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._accel import HAVE_NUMBA, _jit
-from .._raster import bilinear_at
+from .._raster import bilinear_at, bilinear_np as _raster_bilinear_np
 
 
 # ---------------------------------------------------------------------------------------------
@@ -139,18 +139,8 @@ _weights_nb = _jit(_weights_py)
 
 def bilinear_np(grid, left, top, res, x, y):
     """Bilinear interpolation of cell-centre values at points (edges clamped), numpy."""
-    h, wd = grid.shape
-    fc = (np.asarray(x) - left) / res - 0.5
-    fr = (top - np.asarray(y)) / res - 0.5
-    c0 = np.clip(np.floor(fc).astype(np.int64), 0, wd - 1)
-    r0 = np.clip(np.floor(fr).astype(np.int64), 0, h - 1)
-    c1 = np.clip(c0 + 1, 0, wd - 1)
-    r1 = np.clip(r0 + 1, 0, h - 1)
-    tx = np.clip(fc - c0, 0, 1)
-    ty = np.clip(fr - r0, 0, 1)
-    top_ = grid[r0, c0] * (1 - tx) + grid[r0, c1] * tx
-    bot = grid[r1, c0] * (1 - tx) + grid[r1, c1] * tx
-    return top_ * (1 - ty) + bot * ty
+    return _raster_bilinear_np(grid, (top - np.asarray(y)) / res - 0.5,
+                               (np.asarray(x) - left) / res - 0.5)
 
 
 def residuals(grid, left, top, res, x, y, z):
