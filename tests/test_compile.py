@@ -27,3 +27,51 @@ def test_compile_caches_every_kernel_family(tmp_path):
     assert r.returncode == 0
     after = {p: p.stat().st_mtime_ns for p in (tmp_path / "cache").rglob("*.nbi")}
     assert after == before
+
+
+def _kernel_lines():
+    from lidartrees_gis.warmup import KERNEL_LIST
+
+    return {ln for ln in KERNEL_LIST.read_text().splitlines() if ln and not ln.startswith("#")}
+
+
+@pytest.mark.skipif(not _accel.HAVE_NUMBA, reason="numba not in use")
+def test_kernel_list_holds_every_kernel_the_commands_compile():
+    """The wheel's build compiles kernels.txt's signatures: it must hold every kernel and
+    argument type the commands (every crown method) compile, or the first run compiles again."""
+    from lidartrees_gis.warmup import compile_kernels, kernel_signatures
+
+    compile_kernels(every_method=True)
+    used = set(kernel_signatures())
+    assert len(used) >= 17  # grids, TINs, crowns (rg, treex, watershed), outlines, ground
+    assert used <= _kernel_lines(), sorted(used - _kernel_lines())
+
+
+@pytest.mark.skipif(not _accel.HAVE_NUMBA, reason="numba not in use")
+def test_build_step_ships_compiled_kernels_that_load_after_a_move(tmp_path):
+    """_build.precompile (setuptools' build_py in pyproject.toml) fills the build tree's
+    __pycache__; moved elsewhere (pip installs the wheel into site-packages), a new process
+    loads every kernel from there and compiles none."""
+    import importlib.util
+    import shutil
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    spec = importlib.util.spec_from_file_location("_build", root / "_build.py")
+    build = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(build)
+    lib = tmp_path / "build" / "lib"
+    shutil.copytree(root / "lidartrees_gis", lib / "lidartrees_gis", symlinks=True,
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    msg = build.precompile(str(lib))
+    assert msg == f"{len(_kernel_lines())} kernel signatures compiled", msg
+    site = tmp_path / "site"
+    shutil.move(str(lib), str(site))
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env.update(PYTHONPATH=str(site), NUMBA_DEBUG_CACHE="1", PYTHONDONTWRITEBYTECODE="1")
+    r = subprocess.run([sys.executable, "-m", "lidartrees_gis.warmup", "--build"], env=env,
+                       cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    loaded = r.stdout.count("[cache] data loaded from")
+    assert loaded >= len(_kernel_lines()) and "data saved" not in r.stdout, r.stdout[-2000:]
+    assert str(site) in r.stdout
