@@ -488,6 +488,54 @@ def test_neighbouring_tiles_read_a_file_once(split_stand, tmp_path, monkeypatch)
     assert small.misses == 2 and not small.items and small.nbytes == 0
 
 
+def test_a_runs_processes_share_what_they_decompress(split_stand, tmp_path, monkeypatch):
+    """A run's local processes share decompressed files through a temporary folder (two
+    workers each decompressed the files along the line between their tiles): a process with
+    nothing in its own cache takes another's file from there instead of decompressing it; the
+    folder is bounded (oldest first), a failure is a miss, and the run removes it."""
+    import os
+
+    from lidartrees_gis.catalog import runner as run_mod
+    from lidartrees_gis.catalog import source as cat_mod
+    from lidartrees_gis.catalog.source import (SHARED_CACHE_ENV, ReadCache, SharedReadCache,
+                                               TileSource)
+
+    d, files, _ = split_stand
+    catalog = Catalog.open(files[:2])
+    opened = []
+    real_open = type(catalog.read).open
+    monkeypatch.setattr(type(catalog.read), "open",
+                        lambda self, f, **kw: opened.append(Path(f).name) or real_open(self, f, **kw))
+    monkeypatch.delenv(SHARED_CACHE_ENV, raising=False)
+    folder = tmp_path / "shared"
+    folder.mkdir()
+    monkeypatch.setenv(SHARED_CACHE_ENV, str(folder))
+    monkeypatch.setattr(cat_mod, "READ_CACHE", ReadCache())  # a first worker
+    a = TileSource(catalog, catalog.extent).read_all()
+    assert len(opened) == 2 and len(list(folder.glob("*.pkl"))) == 2
+    monkeypatch.setattr(cat_mod, "READ_CACHE", ReadCache())  # another: nothing of its own
+    b = TileSource(catalog, catalog.extent).read_all()
+    assert len(opened) == 2  # nothing decompressed again
+    assert np.array_equal(a.z, b.z) and np.array_equal(a.classification, b.classification)
+    # bounded: the oldest file goes first
+    by_age = sorted(folder.glob("*.pkl"), key=lambda p: p.stat().st_mtime_ns)
+    shared = SharedReadCache(folder, budget=max(p.stat().st_size for p in by_age) + 1000)
+    shared.put(("k",), [], {})
+    assert sorted(p.name for p in folder.glob("*.pkl")) == sorted(
+        [by_age[1].name, Path(shared._path(("k",))).name])
+    # the folder gone: misses, never errors
+    gone = SharedReadCache(tmp_path / "nowhere")
+    assert gone.get(("k",)) is None
+    gone.put(("k",), [], {})
+    # a run with more than one task makes its folder, names it for its workers and removes it
+    monkeypatch.delenv(SHARED_CACHE_ENV)
+    seen = []
+    with run_mod.TileRunner(1) as runner:
+        list(runner.map(lambda k: seen.append(os.environ.get(SHARED_CACHE_ENV)), [1, 2]))
+    assert seen[0] and seen[0] == seen[1] and not Path(seen[0]).exists()
+    assert SHARED_CACHE_ENV not in os.environ
+
+
 def test_tiled_layers_are_complete_and_indexed(split_stand, tmp_path):
     """Tiled runs append their trees batch by batch: the output has every tree in the layers'
     spatial index, the layers in order and no stray file; -append with -nln adds layers the same

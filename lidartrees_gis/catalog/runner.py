@@ -8,7 +8,8 @@ import os
 from ..errors import Cancelled, InputError, LidarTreesError, ReadError
 from ..progress import SubProgress, as_progress, check_cancel
 from .catalog import Catalog
-from .source import READ_CACHE
+from . import source
+from .source import READ_CACHE, SHARED_CACHE_ENV
 
 
 #: below this many points a run stays in the calling process unless ``workers`` or
@@ -231,6 +232,7 @@ class TileRunner:
         self.on_error, self.checkpoint = on_error, checkpoint
         self.client = self.cluster = self.watch = None
         self.failed, self._left_out = [], []
+        self._shared = None  # the folder of this run's shared read cache (see share_reads)
 
     def __enter__(self):
         if self.scheduler:
@@ -244,6 +246,20 @@ class TileRunner:
             if self.scheduler:
                 self.watch = WorkerWatch(self.client)
 
+    def share_reads(self) -> None:
+        """Give this run's local processes a :class:`~lidartrees_gis.catalog.source.
+        SharedReadCache` (a temporary folder named in the environment the workers inherit),
+        before they start; not on a scheduler's cluster (other machines), nor inside a run
+        that has one already. Measured at 16 M points (197 files) on two workers: 263 file
+        decompressions without it, about 200 with it."""
+        import tempfile
+
+        if (self.scheduler or self._shared is not None or os.environ.get(SHARED_CACHE_ENV)
+                or source.SHARED_CACHE_BYTES <= 0):
+            return
+        self._shared = tempfile.mkdtemp(prefix="lidartrees-reads-")
+        os.environ[SHARED_CACHE_ENV] = self._shared
+
     def __exit__(self, *exc):
         READ_CACHE.clear()  # this process's decompressed files (workers end with the cluster)
         if self.watch is not None and exc[0] is None:
@@ -255,6 +271,13 @@ class TileRunner:
         if self.cluster is not None:
             self.cluster.close()
         self.client = self.cluster = self.watch = None
+        if self._shared is not None:
+            import shutil
+
+            if os.environ.get(SHARED_CACHE_ENV) == self._shared:
+                del os.environ[SHARED_CACHE_ENV]
+            shutil.rmtree(self._shared, ignore_errors=True)
+            self._shared = None
 
     def check_readable(self, files) -> None:
         """On an existing cluster: every worker can read every input file (same absolute path,
@@ -307,6 +330,7 @@ class TileRunner:
             yield done[k]
         finished = len(done)
         if len(todo) > 1:
+            self.share_reads()
             self.start()
         if self.client is None:
             for k in todo:

@@ -77,6 +77,77 @@ def _chunk_nbytes(c: PointChunk) -> int:
 #: this process's cache (each Dask worker has its own)
 READ_CACHE = ReadCache()
 
+#: the environment variable naming the folder of a run's :class:`SharedReadCache` (set by
+#: :class:`~lidartrees_gis.catalog.runner.TileRunner` for the run's local processes)
+SHARED_CACHE_ENV = "LIDARTREES_SHARED_READ_CACHE"
+#: bytes of decompressed points a run keeps in its shared folder (temporary files: the
+#: system's page cache holds them, and may write them out)
+SHARED_CACHE_BYTES = int(float(os.environ.get("LIDARTREES_SHARED_CACHE_MB", 1024)) * 2 ** 20)
+
+
+class SharedReadCache:
+    """Decompressed files shared by the processes of one run on one machine (the calling
+    process and its local Dask workers), as pickled files in a temporary folder: a file whose
+    points two workers need (tiles on either side of the line between their runs of tiles)
+    is decompressed once. At most ``budget`` bytes; the oldest files go first. Every failure
+    (the folder gone, a file another process is replacing or dropping) is a miss."""
+
+    def __init__(self, folder, budget: int = SHARED_CACHE_BYTES):
+        self.folder = str(folder)
+        self.budget = int(budget)
+
+    def _path(self, key) -> str:
+        import hashlib
+
+        return os.path.join(self.folder, hashlib.sha1(repr(key).encode()).hexdigest() + ".pkl")
+
+    def get(self, key):
+        import pickle
+
+        try:
+            with open(self._path(key), "rb") as f:
+                return pickle.load(f)
+        except (OSError, EOFError, pickle.UnpicklingError, AttributeError, ValueError):
+            return None
+
+    def put(self, key, chunks: list, dropped: dict) -> None:
+        import pickle
+        import tempfile
+
+        try:
+            fd, tmp = tempfile.mkstemp(dir=self.folder, suffix=".part")
+            with os.fdopen(fd, "wb") as f:
+                pickle.dump((chunks, dict(dropped)), f, protocol=pickle.HIGHEST_PROTOCOL)
+            os.replace(tmp, self._path(key))  # atomic: a reader sees the whole file or none
+            self._trim()
+        except OSError:
+            return
+
+    def _trim(self) -> None:
+        files = []
+        for e in os.scandir(self.folder):
+            if e.name.endswith(".pkl"):
+                try:
+                    st = e.stat()
+                except OSError:
+                    continue
+                files.append((st.st_mtime_ns, st.st_size, e.path))
+        total = sum(f[1] for f in files)
+        for _, size, path in sorted(files):
+            if total <= self.budget:
+                break
+            try:
+                os.unlink(path)
+            except OSError:
+                pass
+            total -= size
+
+
+def shared_cache() -> SharedReadCache | None:
+    """This run's shared cache (None outside a run, or when its folder is gone)."""
+    folder = os.environ.get(SHARED_CACHE_ENV)
+    return SharedReadCache(folder) if folder and os.path.isdir(folder) else None
+
 
 class TileSource:
     """The points of a catalog inside one box, for
@@ -112,7 +183,7 @@ class TileSource:
 
         x0, y0, x1, y1 = self.box
         self.dropped = {}
-        cache, read = READ_CACHE, self.catalog.read
+        cache, read, shared = READ_CACHE, self.catalog.read, shared_cache()
         prog, nf = as_progress(progress), max(len(self.files), 1)
         for k, f in enumerate(self.files):
             try:
@@ -120,6 +191,10 @@ class TileSource:
             except OSError:  # gone: open_points says so
                 key = None
             hit = None if key is None else cache.get(key)
+            if hit is None and key is not None and shared is not None:
+                hit = shared.get(key)  # decompressed by another process of the run
+                if hit is not None:
+                    cache.put(key, *hit)
             kept, kept_bytes = None, 0  # what a first read keeps for the cache
             if hit is not None:
                 chunks, dropped = hit
@@ -142,6 +217,8 @@ class TileSource:
                 dropped = src.dropped
                 if kept is not None:
                     cache.put(key, kept, dropped)
+                    if shared is not None:
+                        shared.put(key, kept, dropped)
             for k, v in dropped.items():
                 self.dropped[k] = self.dropped.get(k, 0) + v
 
