@@ -171,6 +171,8 @@ def test_traced_crown_outlines_equal_gdal_polygonize():
     random label grids full of holes, diagonal touches and crowns in several pieces."""
     from lidartrees_gis import _accel
     from lidartrees_gis.grid import GridSpec
+    import shapely
+
     from lidartrees_gis.als.metrics import _crown_polygons_gdal, crown_polygons, outline_rings
 
     if not _accel.HAVE_NUMBA:
@@ -186,6 +188,9 @@ def test_traced_crown_outlines_equal_gdal_polygonize():
         a = crown_polygons(lab, spec, n)
         b = _crown_polygons_gdal(lab, spec, n)
         assert len(a) == len(b) == n
+        # straight to WKB (the chain's path): the bytes shapely writes of the same polygons
+        w = crown_polygons(lab, spec, n, wkb=True)
+        assert list(w) == [None if p is None else shapely.to_wkb(p) for p in a]
         _, _, ring_lab, _, area, _ = outline_rings(lab, n)
         pieces = np.bincount(ring_lab[area > 0], minlength=n + 1)
         n_multi += int((pieces > 1).sum())

@@ -204,7 +204,7 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
     idx = np.nonzero(tile.in_core(t["x"], t["y"]))[0]
     remap = np.zeros(len(t["x"]) + 1, np.int64)
     remap[idx + 1] = np.arange(1, idx.size + 1)
-    polys = crown_polygons(remap[r["labels"]], spec, idx.size)
+    wkb = crown_polygons(remap[r["labels"]], spec, idx.size, wkb=True)
     st = r.get("stocking")  # plantation mode: the core's positions
     if st is not None:
         t = {**t, "row_number": st["tops_row"], "plant_number": st["tops_plant"]}
@@ -228,9 +228,9 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
     if under is not None:  # no crown of their own: a NULL crown polygon
         out = {c: np.r_[out[c], under[c]] for c in TREE_FIELDS} | {
             k: v for k, v in out.items() if k not in TREE_FIELDS}
-        polys = list(polys) + [None] * len(under["x"])
+        wkb = np.r_[wkb, np.array([None] * len(under["x"]), dtype=object)]
     n = len(out["x"])
-    out["wkb"] = shapely.to_wkb(np.asarray(polys, dtype=object)) if n else []
+    out["wkb"] = wkb if n else []
     out["top_wkb"] = shapely.to_wkb(shapely.points(out["x"], out["y"])) if n else []
     r0, r1, c0, c1 = core_window(spec, tile.core)
     core = s["chm"][r0:r1, c0:c1]
