@@ -88,7 +88,9 @@ def _dispatchers():
 
     for m in KERNEL_MODULES:
         for name, v in sorted(vars(importlib.import_module(m)).items()):
-            if isinstance(v, CPUDispatcher) and v.py_func.__module__ == m:
+            # the kernels the modules call (``*_nb``); the helpers they call are compiled into
+            # them (alone, numba would list their literal-typed specialisations too)
+            if isinstance(v, CPUDispatcher) and v.py_func.__module__ == m and name.endswith("_nb"):
                 yield m, name, v
 
 
