@@ -536,6 +536,24 @@ def test_a_runs_processes_share_what_they_decompress(split_stand, tmp_path, monk
     assert SHARED_CACHE_ENV not in os.environ
 
 
+def test_workers_get_runs_of_equal_points(split_stand):
+    """Each Dask worker takes a contiguous run of the tiles holding about the same number of
+    points (the edge tiles hold fewer), estimated from the files' headers."""
+    from lidartrees_gis.catalog.runner import worker_runs
+
+    d, files, _ = split_stand
+    catalog = Catalog.open(files)
+    assert catalog.points_in(catalog.extent) == pytest.approx(catalog.count)
+    x0, y0, x1, y1 = catalog.extent
+    halves = [(x0, y0, (x0 + x1) / 2, y1), ((x0 + x1) / 2, y0, x1, y1)]
+    assert sum(catalog.points_in(b) for b in halves) == pytest.approx(catalog.count)
+    assert catalog.points_in((x1 + 10, y1 + 10, x1 + 20, y1 + 20)) == 0
+    assert worker_runs([1, 1, 1, 1], 2) == [0, 0, 1, 1]
+    assert worker_runs([9, 1, 1, 1, 1, 1, 1, 1, 1, 1], 2) == [0] + [1] * 9  # not 5 and 5
+    assert worker_runs([5, 5, 1, 1, 1, 1, 1, 1, 1, 1], 3) == [0, 1, 1, 1, 2, 2, 2, 2, 2, 2]
+    assert worker_runs([0, 0, 0], 2) == [0, 1, 1]  # no weights: by count
+
+
 def test_tiled_layers_are_complete_and_indexed(split_stand, tmp_path):
     """Tiled runs append their trees batch by batch: the output has every tree in the layers'
     spatial index, the layers in order and no stray file; -append with -nln adds layers the same

@@ -138,7 +138,11 @@ def run_tiles(runner: TileRunner, fn, plan: AreaPlan, args, ready=None, progress
     if ready is not None:
         yield fn(plan.tiles[0], *args, surfaces=ready, progress=progress)
         return
-    yield from runner.map(fn, list(plan.tiles), args, progress=progress, inner_progress=True)
+    area = next((a for a in args if isinstance(a, Catalog)), None)
+    # each worker a run of tiles of about equal points (the edge tiles hold fewer)
+    weights = None if area is None else [area.points_in(t.box) for t in plan.tiles]
+    yield from runner.map(fn, list(plan.tiles), args, progress=progress, inner_progress=True,
+                          weights=weights)
 
 
 def _result(area, plan: AreaPlan, summary: Tally) -> dict:

@@ -95,6 +95,19 @@ class Catalog:
         """Covered area (m²): the sum of the files' bounding boxes (tiles do not overlap)."""
         return float(sum(max(b[2] - b[0], 0) * max(b[3] - b[1], 0) for b in self.bounds))
 
+    def points_in(self, box) -> float:
+        """An estimate of the points inside ``box``: each file's count times the share of its
+        bounding box inside ``box`` (a file of no area counts whole when it meets the box)."""
+        x0, y0, x1, y1 = box
+        n = 0.0
+        for (a, b, c, d), k in zip(self.bounds, self.counts):
+            w, h = min(c, x1) - max(a, x0), min(d, y1) - max(b, y0)
+            if w < 0 or h < 0:
+                continue
+            full = (c - a) * (d - b)
+            n += k * (w * h / full if full > 0 else 1.0)
+        return n
+
     def files_for(self, box) -> list:
         """Files whose bounds intersect ``box`` (xmin, ymin, xmax, ymax)."""
         x0, y0, x1, y1 = box

@@ -80,6 +80,24 @@ def _client(workers, scheduler):
     return Client(cluster), cluster
 
 
+def worker_runs(weights, workers: int) -> list:
+    """The worker of each item: ``workers`` contiguous runs of the items (in their order) of
+    about equal total weight (each item goes to the run holding the middle of its weight).
+
+    >>> worker_runs([1, 1, 1, 1], 2), worker_runs([3, 1, 1, 1], 2)
+    ([0, 0, 1, 1], [0, 1, 1, 1])
+    """
+    w = [max(float(v), 0.0) for v in weights]
+    total = sum(w)
+    if not total > 0:
+        w, total = [1.0] * len(w), float(len(w))
+    out, acc = [], 0.0
+    for v in w:
+        out.append(min(int((acc + 0.5 * v) / total * workers), workers - 1))
+        acc += v
+    return out
+
+
 def tile_name(item, label: str = "tile") -> str:
     """A tile (or a measurement window, a box) in words for messages."""
     core = getattr(item, "core", None)
@@ -304,22 +322,24 @@ class TileRunner:
         (self.failed if label == "tile" else self._left_out).append(err)
 
     def map(self, fn, items, args=(), *, progress=None, ordered=False, label="tile",
-            inner_progress=False):
+            inner_progress=False, weights=None):
         """See :meth:`_map`; measurement windows set aside (``-on_error skip``) are told in one
         line at the end."""
         self._left_out = []
         yield from self._map(fn, items, args, progress=progress, ordered=ordered, label=label,
-                             inner_progress=inner_progress)
+                             inner_progress=inner_progress, weights=weights)
         if self._left_out:
             _warn(f"{len(self._left_out)} of {len(items)} {label}s were left out of the area's "
                   f"measurements (-on_error skip): {failures_text(self._left_out, label)}")
 
     def _map(self, fn, items, args=(), *, progress=None, ordered=False, label="tile",
-             inner_progress=False):
+             inner_progress=False, weights=None):
         """Yield ``fn(item, *args)`` for every item, as they finish (``ordered``: in order).
         A cancel (or Ctrl-C) cancels the remaining tasks. With ``inner_progress``, tasks run in
         this process get ``progress=`` their share of ``progress`` (a task on Dask reports when
-        it ends). Items whose task failed for good are left out with ``on_error='skip'``."""
+        it ends). Items whose task failed for good are left out with ``on_error='skip'``.
+        ``weights``: each item's expected work (a tile's points), to give the workers runs of
+        equal work (:func:`worker_runs`) rather than of equal length."""
         prog = as_progress(progress)
         items = list(items)
         n = len(items)
@@ -361,13 +381,16 @@ class TileRunner:
                       if isinstance(a, Catalog) else a for a in args]
             # each worker takes a contiguous run of the (row by row) tiles, so the files it
             # decompressed for one tile are still in its read cache for the next; idle workers
-            # still take over the others' tasks at the end
+            # still take over the others' tasks at the end; the runs hold about equal points
+            # (weights), not equal counts of tiles: 16 M points on two workers 18.94 s against
+            # 19.14 s (three runs each, alternating)
             addrs = sorted(self.client.scheduler_info(n_workers=-1)["workers"])
-            block = max(1, -(-len(todo) // max(len(addrs), 1)))
+            run = worker_runs([1.0 if weights is None else float(weights[k]) for k in todo],
+                              max(len(addrs), 1))
             # the client keeps every future until its result is written: a lost worker's
             # tasks are run again from them
             futs = [self.client.submit(fn, items[k], *shared, pure=False, retries=self.RETRIES,
-                                       workers=[addrs[j // block]] if addrs else None,
+                                       workers=[addrs[run[j]]] if addrs else None,
                                        allow_other_workers=True)
                     for j, k in enumerate(todo)]
             index = {f.key: k for f, k in zip(futs, todo)}
