@@ -74,10 +74,16 @@ def _type_text(t) -> str:
     from numba.core import types
 
     if isinstance(t, types.Array):
-        if t.layout != "C" or not t.mutable or not t.aligned:
-            raise ValueError(f"kernel argument {t}: only C-contiguous writable arrays are listed")
+        if not t.mutable or not t.aligned:
+            raise ValueError(f"kernel argument {t}: a read-only or unaligned array has no "
+                             "signature text")
         dt = "boolean" if t.dtype == types.boolean else str(t.dtype)
-        return f"{dt}[{', '.join([':'] * (t.ndim - 1) + ['::1'])}]"
+        dims = [":"] * t.ndim
+        if t.layout == "C":
+            dims[-1] = "::1"
+        elif t.layout == "F":
+            dims[0] = "::1"
+        return f"{dt}[{', '.join(dims)}]"
     return "boolean" if t == types.boolean else str(t)
 
 
