@@ -78,3 +78,14 @@ def test_build_step_ships_compiled_kernels_that_load_after_a_move(tmp_path):
     loaded = r.stdout.count("[cache] data loaded from")
     assert loaded >= len(_kernel_lines()) and "data saved" not in r.stdout, r.stdout[-2000:]
     assert str(site) in r.stdout
+
+
+def test_the_build_step_is_in_the_source_distribution():
+    """pyproject.toml names _build.BuildPy as setuptools' build_py: an sdist without _build.py
+    could not be built into a wheel (MANIFEST.in includes it)."""
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    assert 'build_py = "_build.BuildPy"' in (root / "pyproject.toml").read_text()
+    assert "include _build.py" in (root / "MANIFEST.in").read_text().splitlines()
+    assert (root / "_build.py").exists()
