@@ -335,7 +335,8 @@ def test_a_sub_box_has_the_chm_of_the_whole_away_from_its_edges(tmp_path):
 @pytest.mark.parametrize("res", [0.5, 2.0])
 def test_the_trees_dtm_is_the_whole_dtm_within_the_data(tmp_path, res):
     """``whole_dtm=False`` (the trees chain) leaves the terrain NaN only beyond the data: every
-    other surface, and the DTM within reach of the data, are those of the whole DTM."""
+    other surface, and the DTM within reach of the data, are those of the whole DTM; the DSM,
+    which the trees do not read, is not filled (None) unless the CHM is made from it."""
     from pyproj import CRS
 
     from lidartrees_gis.als.surfaces import SurfaceOptions, compute_surfaces
@@ -358,8 +359,12 @@ def test_the_trees_dtm_is_the_whole_dtm_within_the_data(tmp_path, res):
     a = compute_surfaces(TileSource(cat, cat.extent), res, SurfaceOptions(), **kw)
     b = compute_surfaces(TileSource(cat, cat.extent), res, SurfaceOptions(), whole_dtm=False,
                          **kw)
-    for k in ("chm", "heights", "returns", "dsm"):
+    for k in ("chm", "heights", "returns"):
         assert np.array_equal(a[k], b[k], equal_nan=True), k
+    assert a["dsm"] is not None and b["dsm"] is None
+    m = compute_surfaces(TileSource(cat, cat.extent), res, SurfaceOptions(chm="max"),
+                         whole_dtm=False)
+    assert np.array_equal(m["dsm"], a["dsm"], equal_nan=True)  # -chm max: the CHM is DSM - DTM
     for i in range(3):
         assert np.array_equal(a["points_above_ground"][i], b["points_above_ground"][i])
     assert np.isfinite(a["dtm"]).all()

@@ -341,8 +341,10 @@ def compute_surfaces(src, res: float, opts: SurfaceOptions | None = None, *,
     ``outlier_cells``, ``outlier_points``, ``stats`` (the :class:`SurfaceStats` used) and
     ``density`` (points per m² over the data footprint); with ``keep_points``, ``points``:
     every point's ``(x, y, height above the DTM)`` (plantation mode looks under the canopy).
-    ``whole_dtm=False``: the DTM only within the data footprint (NaN beyond it, where the
-    other surfaces are NaN anyway; the trees need no more), not extrapolated to every cell.
+    ``whole_dtm=False`` (the trees): the DTM only within the data footprint (NaN beyond it,
+    where the other surfaces are NaN anyway; the trees need no more), not extrapolated to every
+    cell, and no gap-filled DSM (``dsm`` None) unless the CHM is made from it (``-chm max``):
+    the trees do not read it (its filling was 0.45 s of a 16 M point chain at 0.5 m cells).
     """
     opts = opts or SurfaceOptions()
     stats = stats or SurfaceStats()
@@ -381,7 +383,8 @@ def compute_surfaces(src, res: float, opts: SurfaceOptions | None = None, *,
     # the highest return above ground of each cell (NaN: none); plantation mode looks at it
     returns = dsm_raw - dtm
     prog.update(0.88, "filling gaps")
-    dsm = fill_gaps(dsm_raw, opts.fill, progress=SubProgress(prog, 0.88, 0.9), mask=footprint)
+    dsm = None if not whole_dtm and opts.chm != "max" else fill_gaps(
+        dsm_raw, opts.fill, progress=SubProgress(prog, 0.88, 0.9), mask=footprint)
     max_edge = stats.max_edge
     if opts.chm == "max":
         chm = heights = dsm - dtm
