@@ -534,6 +534,23 @@ def test_a_runs_processes_share_what_they_decompress(split_stand, tmp_path, monk
         list(runner.map(lambda k: seen.append(os.environ.get(SHARED_CACHE_ENV)), [1, 2]))
     assert seen[0] and seen[0] == seen[1] and not Path(seen[0]).exists()
     assert SHARED_CACHE_ENV not in os.environ
+    # a killed run's folder (its process gone) goes when the next run starts; a live one stays
+    import subprocess
+    import sys
+    import tempfile
+
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True).stdout.strip()
+    orphan = Path(tempfile.gettempdir()) / f"{run_mod.SHARED_PREFIX}{dead}-x"
+    live = Path(tempfile.gettempdir()) / f"{run_mod.SHARED_PREFIX}{os.getpid()}-y"
+    for p in (orphan, live):
+        p.mkdir(exist_ok=True)
+        (p / "a.pkl").write_bytes(b"x")
+    with run_mod.TileRunner(1) as runner:
+        list(runner.map(lambda k: k, [1, 2]))
+    assert not orphan.exists() and live.exists()
+    import shutil
+    shutil.rmtree(live)
 
 
 def test_workers_get_runs_of_equal_points(split_stand):
