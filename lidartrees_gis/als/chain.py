@@ -139,8 +139,11 @@ def run_tiles(runner: TileRunner, fn, plan: AreaPlan, args, ready=None, progress
         yield fn(plan.tiles[0], *args, surfaces=ready, progress=progress)
         return
     area = next((a for a in args if isinstance(a, Catalog)), None)
-    # each worker a run of tiles of about equal points (the edge tiles hold fewer)
-    weights = None if area is None else [area.points_in(t.box) for t in plan.tiles]
+    # each worker a run of tiles of about equal points (the edge tiles hold fewer); in this
+    # process the order alone matters
+    spread = runner.workers > 1 or runner.scheduler
+    weights = [area.points_in(t.box) for t in plan.tiles] if area is not None and spread \
+        else None
     yield from runner.map(fn, list(plan.tiles), args, progress=progress, inner_progress=True,
                           weights=weights)
 

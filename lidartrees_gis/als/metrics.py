@@ -268,15 +268,16 @@ def crown_polygons(labels, spec: GridSpec, n: int, *, wkb: bool = False) -> list
     # only a crown with a diagonal touch can be invalid (a ring touching itself there)
     pinched = np.isin(keys, ring_lab[ring_pinch])
     direct = ~pinched if wkb and sys.byteorder == "little" else np.zeros(keys.size, bool)
+    sel = direct[np.searchsorted(keys, labs)]  # each ring of ``order``: its crown goes direct
+    rest = ~sel
     if direct.any():
-        sel = direct[np.searchsorted(keys, labs)]
         dl = labs[sel]
         first = np.flatnonzero(np.r_[True, dl[1:] != dl[:-1]])
         out[keys[direct] - 1] = polygons_wkb(x, y, starts, sizes, order[sel],
                                              np.r_[first, dl.size])
     # the others as shapely polygons: their rings only
     need = np.zeros(ring_lab.size, bool)
-    need[order[~direct[np.searchsorted(keys, labs)]]] = True
+    need[order[rest]] = True
     need |= n_shells[ring_lab] > 1
     rings = np.empty(ring_lab.size, dtype=object)
     if need.any():
@@ -285,7 +286,6 @@ def crown_polygons(labels, spec: GridSpec, n: int, *, wkb: bool = False) -> list
         rings[need] = shapely.linearrings(np.column_stack([x[vsel], y[vsel]]),
                                           indices=np.repeat(np.arange(int(need.sum())),
                                                             sizes[need]))
-    rest = ~direct[np.searchsorted(keys, labs)]
     rkeys = keys[~direct]
     polys = shapely.polygons(rings[order[rest]], indices=np.searchsorted(rkeys, labs[rest])) \
         if rkeys.size else np.empty(0, dtype=object)

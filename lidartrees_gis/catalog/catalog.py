@@ -99,14 +99,13 @@ class Catalog:
         """An estimate of the points inside ``box``: each file's count times the share of its
         bounding box inside ``box`` (a file of no area counts whole when it meets the box)."""
         x0, y0, x1, y1 = box
-        n = 0.0
-        for (a, b, c, d), k in zip(self.bounds, self.counts):
-            w, h = min(c, x1) - max(a, x0), min(d, y1) - max(b, y0)
-            if w < 0 or h < 0:
-                continue
-            full = (c - a) * (d - b)
-            n += k * (w * h / full if full > 0 else 1.0)
-        return n
+        b = np.asarray(self.bounds, float).reshape(-1, 4)
+        w = np.minimum(b[:, 2], x1) - np.maximum(b[:, 0], x0)
+        h = np.minimum(b[:, 3], y1) - np.maximum(b[:, 1], y0)
+        full = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
+        share = np.where(full > 0, w * h / np.where(full > 0, full, 1.0), 1.0)
+        meets = (w >= 0) & (h >= 0)
+        return float(np.sum(np.asarray(self.counts, float)[meets] * share[meets]))
 
     def files_for(self, box) -> list:
         """Files whose bounds intersect ``box`` (xmin, ymin, xmax, ymax)."""

@@ -114,14 +114,20 @@ class SharedReadCache:
         import pickle
         import tempfile
 
+        tmp = None
         try:
             fd, tmp = tempfile.mkstemp(dir=self.folder, suffix=".part")
             with os.fdopen(fd, "wb") as f:
                 pickle.dump((chunks, dict(dropped)), f, protocol=pickle.HIGHEST_PROTOCOL)
             os.replace(tmp, self._path(key))  # atomic: a reader sees the whole file or none
+            tmp = None
             self._trim()
         except OSError:
-            return
+            if tmp is not None:  # a disk that filled up: no half-written file left
+                try:
+                    os.unlink(tmp)
+                except OSError:
+                    pass
 
     def _trim(self) -> None:
         files = []
