@@ -4,9 +4,10 @@ stocking beside the truth's, per variation; and a two-stand file with -stands.
 
 For each stand: F, recall, precision (Eysn et al. 2015 matching, all trees and dominant ones),
 the suppressed trees found, and in plantation mode the stocking (stocked positions / positions:
-a suppressed tree stocks its position) against the truth's, the share of the reported gaps that
-are true gaps (within half the smaller spacing of a missing position) and the reported gaps that
-hold a suppressed tree.
+a suppressed tree stocks its position, an uncertain one counts by its share of crown returns)
+against the truth's, the share of the reported gaps (status missing) that are true gaps (within
+half the smaller spacing of a missing position), the reported gaps that hold a suppressed tree,
+and what the truth has at the positions left uncertain.
 
 Usage: python benchmarks/bench_stands.py [--out benchmarks/results/stands.json] [--quick]
 """
@@ -69,9 +70,18 @@ def _stocking(r: dict, truth, gpkg) -> dict:
            "missing": int(r["missing_trees"]), "truth_missing": int((pos["status"] == 0).sum())}
     gaps = pyogrio.read_dataframe(gpkg, layer="gaps", read_geometry=False)
     out["suppressed"] = int(r.get("suppressed_trees") or 0)
+    out["uncertain"] = int(r.get("uncertain_positions") or 0)
+    tol = 0.5 * min(truth["spacing"])
+    unc = gaps[gaps["status"] == "uncertain"]
+    if len(unc):  # what the truth has at the positions left to a field check
+        _, p_k = match_trees(unc["x"].to_numpy(), unc["y"].to_numpy(), pos["x"], pos["y"],
+                             max_dist=tol)
+        st = pos["status"][p_k]
+        out["uncertain_truth"] = {"missing": int((st == 0).sum()),
+                                  "suppressed": int((st == 2).sum()),
+                                  "dominant": int((st == 1).sum())}
     gaps = gaps[gaps["status"] == "missing"] if "status" in gaps.columns else gaps
     if len(gaps):
-        tol = 0.5 * min(truth["spacing"])
         miss = pos["status"] == 0
         g_k, p_k = match_trees(gaps["x"].to_numpy(), gaps["y"].to_numpy(), pos["x"][inside],
                                pos["y"][inside], max_dist=tol)
@@ -102,7 +112,9 @@ def stand_runs(tmp: Path, specs) -> list:
         print(f"{s.name:32s} defaults F {row['defaults']['f']:.3f}  plantation F "
               f"{row['plantation']['f']:.3f}  stocking {row['plantation']['stocking_pct']:.2f} "
               f"(truth {row['plantation']['truth_stocking_pct']:.2f})  true gaps "
-              f"{row['plantation']['gaps_true_share']}", flush=True)
+              f"{row['plantation']['gaps_true_share']}  uncertain "
+              f"{row['plantation']['uncertain']} {row['plantation'].get('uncertain_truth', '')}",
+              flush=True)
     return rows
 
 
@@ -124,7 +136,8 @@ def two_stand_run(tmp: Path, density: float = 12.0) -> dict:
         out[name] = {row["stand_id"]: {k: (round(float(row[k]), 2) if isinstance(row[k], float)
                                            else int(row[k]))
                                        for k in ("trees", "planting_positions", "missing_trees",
-                                                 "suppressed_trees", "stocking_pct",
+                                                 "suppressed_trees", "uncertain_positions",
+                                                 "stocking_pct",
                                                  "row_azimuth")}
                      for _, row in st.iterrows()}
         for _, row in st.iterrows():

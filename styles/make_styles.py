@@ -152,9 +152,13 @@ def main():
     suppressed = QgsMarkerSymbol.createSimple(
         {"name": "circle", "color": "0,0,0,0", "outline_color": "#08519c",
          "outline_width": "0.5", "size": "2.4"})
+    uncertain = QgsMarkerSymbol.createSimple(
+        {"name": "triangle", "color": "0,0,0,0", "outline_color": "#ff7f00",
+         "outline_width": "0.6", "size": "2.8"})
     gaps.setRenderer(QgsCategorizedSymbolRenderer("status", [
         QgsRendererCategory("missing", missing, "missing tree (gap)"),
-        QgsRendererCategory("suppressed", suppressed, "suppressed tree (no top)")]))
+        QgsRendererCategory("suppressed", suppressed, "suppressed tree (no top)"),
+        QgsRendererCategory("uncertain", uncertain, "uncertain (field check)")]))
     gaps.saveNamedStyle(str(HERE / "gaps.qml"))
     stands_style(HERE / "stands.qml")
     app.exitQgis()

@@ -32,3 +32,27 @@ def test_quicklook_without_georeferencing_is_in_cells(tmp_path):
     assert ((rgb[..., 0] > 180) & (rgb[..., 1] < 70) & (rgb[..., 2] < 70)).sum() > 5  # the top
     with pytest.raises(FileExistsError):
         write_quicklook(tmp_path / "q.png", chm, labels, [25], [25])
+
+
+def test_quicklook_marks_missing_and_uncertain_positions_apart(tmp_path):
+    """Plantation mode's quick look: missing trees as black crosses, the positions left to a
+    field check as orange triangles, each counted in the legend."""
+    from PIL import Image
+
+    from lidartrees_gis.grid import GridSpec
+
+    spec = GridSpec.from_bounds(500000.0, 7500000.0, 500040.0, 7500030.0, 0.5)
+    chm = np.full(spec.shape, 20.0)
+    labels = np.ones(spec.shape, np.int64)
+
+    def orange(path):
+        rgb = np.asarray(Image.open(path).convert("RGB")).astype(int)
+        return ((np.abs(rgb[..., 0] - 255) < 30) & (np.abs(rgb[..., 1] - 127) < 30)
+                & (rgb[..., 2] < 50)).sum()
+
+    gaps = ([500010.0], [7500010.0])
+    write_quicklook(tmp_path / "a.png", chm, labels, [30], [30], spec=spec, gaps=gaps)
+    write_quicklook(tmp_path / "b.png", chm, labels, [30], [30], spec=spec, gaps=gaps,
+                    uncertain=([500020.0, 500030.0], [7500020.0, 7500020.0]))
+    # the CHM's own ramp may hold orange: the triangles add to it
+    assert orange(tmp_path / "b.png") > orange(tmp_path / "a.png") + 20

@@ -88,7 +88,11 @@ def test_each_stand_gets_its_own_lattice_and_stocking(two_stands, capsys):
         tol = 1.0 if s["stand_id"] == "T-01" else 1.5
         assert abs(s["stocking_pct"] - true_pct) <= tol, (s["stand_id"], s["stocking_pct"],
                                                           true_pct)
-        assert abs(s["missing_trees"] - t["missing"]) <= (3 if s["stand_id"] == "T-01" else 15)
+        # the missing trees counted, and those plus the positions left to a field check,
+        # bracket the truth's
+        slack = 3 if s["stand_id"] == "T-01" else 15
+        assert s["missing_trees"] - slack <= t["missing"] <= (
+            s["missing_trees"] + s["uncertain_positions"] + slack), (s, t)
         assert abs(s["area_ha"] - 0.64) < 1e-6
         assert s["data_cover_pct"] > 99
         assert s["dominant_height"] > s["mean_height"]
@@ -131,7 +135,8 @@ def test_stands_figures_do_not_depend_on_the_tiling(two_stands):
     one, tiled = figs
     # each stand's lattice is fitted once, on every tile's tops (a lattice per tile, a few
     # centimetres apart, counted positions along the tiles' edges twice or not at all)
-    for k in ("trees", "planting_positions", "missing_trees", "suppressed_trees"):
+    for k in ("trees", "planting_positions", "missing_trees", "suppressed_trees",
+              "uncertain_positions"):
         assert (one[k] == tiled[k]).all(), (k, one[k].tolist(), tiled[k].tolist())
     assert np.allclose(one["row_azimuth"], tiled["row_azimuth"], atol=1e-6)
     assert np.allclose(one["stocking_pct"], tiled["stocking_pct"], atol=1e-9)

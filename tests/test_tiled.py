@@ -141,7 +141,8 @@ def test_tiles_look_for_a_planting_lattice_as_one_file_does(tmp_path):
     assert tiled["tiles"] == tiled["planting_tiles"] == 6 and off["planting_tiles"] == 0
     assert tiled["planting_detected"] == "3.00x2.00" and off["gap_trees"] == 0
     assert tiled["gap_trees"] >= 10 and off["suppressed_trees"] == 0
-    assert tiled["trees"] == off["trees"] + tiled["gap_trees"] + tiled["suppressed_trees"]
+    assert tiled["trees"] == (off["trees"] + tiled["gap_trees"] + tiled["suppressed_trees"]
+                              + tiled["uncertain_trees"])
     ids = set(whole["tree_ids"])
     assert len(ids ^ set(tiled["tree_ids"])) <= 2
     tops = pyogrio.read_dataframe(tmp_path / "tiled.gpkg", layer="tree_tops")
@@ -179,6 +180,8 @@ def test_plantation_mode_in_tiles_reports_the_stocking_of_one_file(tmp_path):
     gaps = pyogrio.read_dataframe(out, layer="gaps")
     one = pyogrio.read_dataframe(tmp_path / "one.gpkg", layer="gaps")
     assert gaps.gap_id.is_unique and (gaps.status == "suppressed").sum() == s.suppressed_trees
+    assert (gaps.status == "uncertain").sum() == s.uncertain_positions == \
+        whole["uncertain_positions"]
     gaps, one = gaps[gaps.status == "missing"], one[one.status == "missing"]
     assert len(gaps) == len(one) == s.missing_trees
     d = np.hypot(gaps.x.to_numpy()[:, None] - one.x.to_numpy()[None, :],
@@ -593,7 +596,8 @@ def test_tiled_layers_are_complete_and_indexed(split_stand, tmp_path):
         for t in ("tree_tops", "crowns", "b_tree_tops", "b_crowns"):
             n = con.execute(f'SELECT count(*) FROM "{t}"').fetchone()[0]
             # a suppressed tree (no top, under its neighbours) has no crown polygon
-            assert n == a["trees"] - (a["suppressed_trees"] if "crowns" in t else 0)
+            assert n == a["trees"] - (a["suppressed_trees"] + a["uncertain_trees"]
+                                      if "crowns" in t else 0)
             assert con.execute(f'SELECT count(*) FROM "rtree_{t}_geom"').fetchone()[0] == n
             assert pyogrio.read_info(out, layer=t)["capabilities"]["fast_spatial_filter"]
         assert con.execute("PRAGMA integrity_check").fetchone()[0] == "ok"

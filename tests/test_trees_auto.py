@@ -250,16 +250,23 @@ def test_plantation_mode_writes_gaps_and_stocking(tmp_path, stand):
     assert {"tree_tops", "crowns", "gaps", "summary"} <= layers
     empty = gpd.read_file(out, layer="gaps")
     summ = pyogrio.read_dataframe(out, layer="summary")
-    assert set(empty.status) <= {"missing", "suppressed"}
+    assert set(empty.status) <= {"missing", "suppressed", "uncertain"}
     gaps = empty[empty.status == "missing"]
-    assert len(empty) - len(gaps) == int(summ.suppressed_trees[0])
+    assert (empty.status == "suppressed").sum() == int(summ.suppressed_trees[0])
+    assert (empty.status == "uncertain").sum() == int(summ.uncertain_positions[0])
     assert gaps.crs.to_epsg() == 31984 and len(gaps) == int(summ.missing_trees[0])
     assert summ.spacing[0] == "3x2" and summ.planting_positions[0] == 600
-    # the stand lost 8 of its 600 positions: each is found as a gap
+    # the stand lost 8 of its 600 positions: each is found as a gap, or left to a field check
+    # (one, under a neighbour's crown reaching over it: 11 of its 25 returns at crown height)
     from scipy.spatial import cKDTree
 
-    d, _ = cKDTree(np.c_[gaps.x, gaps.y]).query(np.c_[truth["_missing_x"], truth["_missing_y"]])
-    assert (d < 0.5).all()
+    open_ = empty[empty.status != "suppressed"]
+    d, _ = cKDTree(np.c_[open_.x, open_.y]).query(np.c_[truth["_missing_x"],
+                                                         truth["_missing_y"]])
+    assert (d < 0.5).all() and len(gaps) >= 7
+    assert set(empty.crown_share[empty.status == "missing"]) and \
+        empty.crown_share[empty.status == "missing"].max() < 0.5 <= \
+        empty.crown_share[empty.status == "suppressed"].min()
     assert abs(summ.stocking_pct[0] - 100 * 592 / 600) <= 1.0
 
 
@@ -444,8 +451,10 @@ def test_plantation_mode_looks_again_at_empty_positions(tmp_path, monkeypatch):
     r0, e0 = run("without")
     assert r["gap_trees"] >= 10 and r0["gap_trees"] == 0
     # without the second look, the classification of the empty positions still finds those
-    # trees, as suppressed trees without a crown of their own; with it they get their crowns
-    assert r0["suppressed_trees"] >= r["suppressed_trees"] + 0.8 * r["gap_trees"]
+    # trees, as suppressed trees without a crown of their own (or the likelier answer at an
+    # uncertain position); with it they get their crowns
+    assert r0["suppressed_trees"] + r0["uncertain_trees"] >= (
+        r["suppressed_trees"] + r["uncertain_trees"] + 0.8 * r["gap_trees"])
     assert e["recall"] >= e0["recall"] - 0.005 and e["f_score"] >= 0.975
     # 4 pts/m²: within the 2 points issue 23 asks (the empty positions where a tree stands
     # without a top of its own count as stocked, with or without the second look)

@@ -307,7 +307,8 @@ def _stands_result(stands, rows, tally, stand_csv) -> dict:
                 f"{_round(r['dominant_height'], 1)} m, {r['area_ha']:.2f} ha")
         if "stocking_pct" in r:
             text += (f", stocking {_round(r['stocking_pct'], 1)} % ({r['missing_trees']} "
-                     f"missing, {r['suppressed_trees']} suppressed of "
+                     f"missing, {r['suppressed_trees']} suppressed, "
+                     f"{r['uncertain_positions']} uncertain of "
                      f"{r['planting_positions']} positions, rows at {r['row_azimuth']:.1f}°)")
         out[f"stand {r['stand_id']}"] = text
     return out
@@ -383,6 +384,7 @@ def _trees_result(output, area, plan, summary, row, p, layers, surface) -> dict:
            "mean_crown_diameter": _round(row["mean_crown_diameter"], 2),
            "small_crowns": int(row["small_crowns"]),
            "suppressed_trees": int(row["suppressed_trees"]),
+           "uncertain_trees": int(row["uncertain_trees"]),
            "trees_per_ha": _round(row["trees_per_ha"], 1),
            "gap_trees": int(row["gap_trees"]),
            "planting_detected": row["planting_detected"] or None,
@@ -390,7 +392,7 @@ def _trees_result(output, area, plan, summary, row, p, layers, surface) -> dict:
            "tree_ids": summary.tree_ids}
     if p.spacing is not None:
         out.update({k: row[k] for k in ("spacing", "row_azimuth", "planting_positions",
-                                         "missing_trees", "numbering")})
+                                         "missing_trees", "uncertain_positions", "numbering")})
         out["stocking_pct"] = _round(row["stocking_pct"], 2)
     if output is None:
         out["layers"] = layers.frames()

@@ -14,6 +14,7 @@ import numpy as np
 from ..errors import OutputExistsError
 from ..io.styles import GPKG_DATASET_OPTIONS, LAYER_STYLES, embed_styles
 from .metrics import tree_ids
+from .positions import MISSING, STATUS_NAMES, UNCERTAIN
 from .stocking import axial_mean, fitted_spacing, stocking_fields
 from .tile import INT_FIELDS, TREE_FIELDS
 
@@ -40,13 +41,14 @@ class Tally:
 class TreesSummary(Tally):
     """The stand summary of an area, summed tile by tile."""
 
-    STOCK = ("expected", "stocked", "suppressed", "missing", "extra", "planted_area_ha")
+    STOCK = ("expected", "stocked", "suppressed", "missing", "uncertain", "uncertain_stocked",
+             "extra", "planted_area_ha")
 
     def __init__(self):
         super().__init__()
         self.n, self.hsum, self.h2sum, self.dsum = 0, 0.0, 0.0, 0.0
         self.canopy, self.gap_trees, self.small = 0, 0, 0
-        self.crowned, self.suppressed = 0, 0
+        self.crowned, self.suppressed, self.leaning = 0, 0, 0
         self.lattices, self.azimuths, self.ids, self.spacings = [], [], [], []
         self.numbering, self.numbered = "", 0
         self.stock = dict.fromkeys(self.STOCK, 0)
@@ -56,13 +58,14 @@ class TreesSummary(Tally):
         super().add(r)
         self.ids.append(np.asarray(r["tree_id"], np.int64))
         h = np.asarray(r["height"], float)
-        sup = np.asarray(r["suppressed"]) == 1  # no crown of their own
+        sup = np.asarray(r["suppressed"]) != 0  # no crown of their own
         self.n += h.size
         self.hsum += float(h.sum())
         self.h2sum += float((h ** 2).sum())
         self.dsum += float(np.sum(r["crown_diameter"]))
         self.crowned += int((~sup).sum())
-        self.suppressed += int(sup.sum())
+        self.suppressed += int((np.asarray(r["suppressed"]) == 1).sum())
+        self.leaning += int((np.asarray(r["suppressed"]) == 2).sum())
         self.small += int((small_crowns(r["crown_area"], r["n_cells"]) & ~sup).sum())
         self.canopy += r["canopy_cells"]
         self.gap_trees += r["gap_trees"]
@@ -111,6 +114,8 @@ class TreesSummary(Tally):
                "small_crowns": self.small,
                # trees at an empty planting position with no top (no crown polygon)
                "suppressed_trees": self.suppressed,
+               # trees at uncertain positions (their returns lean to a tree: a field check)
+               "uncertain_trees": self.leaning,
                "method": params.method, "smooth": smooth,
                "tops": self.tops_label(params),
                "res": res, "crown_scale": plan.crown_scale, "dominant_height": plan.dominant_height,
@@ -171,10 +176,13 @@ def gap_arrays(st: dict, res: float, tile, stand_ids=None) -> dict:
            "row_number": np.asarray(st["gaps_row"], np.int64),
            "plant_number": np.asarray(st["gaps_plant"], np.int64), "x": gx, "y": gy,
            "tile": np.full(gx.size, "_".join(map(str, tile)), dtype=object)}
-    # what stands at the position: nothing (missing, a gap) or a suppressed tree under or
-    # beside its neighbours' crowns (no top of its own)
-    out["status"] = np.asarray(["missing", "suppressed"], dtype=object)[
+    # what stands at the position: nothing (missing, a gap), a suppressed tree under or
+    # beside its neighbours' crowns (no top of its own), or either (uncertain: a field check);
+    # crown_share: the share of the returns there at a suppressed tree's height, of `returns`
+    out["status"] = np.asarray(STATUS_NAMES, dtype=object)[
         np.asarray(st.get("gaps_status", np.zeros(gx.size, np.int8)), np.int64)]
+    out["crown_share"] = np.asarray(st.get("gaps_share", np.zeros(gx.size)), float)
+    out["returns"] = np.asarray(st.get("gaps_returns", np.zeros(gx.size)), np.int64)
     if stand_ids is not None:
         out["stand_id"] = stand_names(st.get("gaps_zone", np.full(gx.size, -1)), stand_ids)
     return out
@@ -242,7 +250,7 @@ class TreeLayers:
             g = {k: np.concatenate([p[k] for p in self.gaps]) for k in self.gaps[0]} \
                 if self.gaps else {k: np.empty(0) for k in ("gap_id", "row_number",
                                                             "plant_number", "x", "y", "tile",
-                                                            "status")
+                                                            "status", "crown_share", "returns")
                                    + (("stand_id",) if self.stand_ids is not None else ())}
             out[self.names["gaps"]] = gpd.GeoDataFrame(g, crs=crs,
                                                        geometry=shapely.points(g["x"], g["y"]))
@@ -399,6 +407,7 @@ class QuickLook:
                                                              crs=spec.crs)
         self.chm = np.full(self.spec.shape, np.nan)
         self.crowns, self.x, self.y, self.gx, self.gy = [], [], [], [], []
+        self.ux, self.uy = [], []
 
     def add(self, r: dict) -> None:
         a = np.asarray(r["chm"], np.float64)
@@ -410,9 +419,10 @@ class QuickLook:
             self.y.append(np.asarray(r["y"]))
         st = r.get("stocking")
         if st is not None and len(st["gaps_x"]):
-            miss = np.asarray(st.get("gaps_status", np.zeros(len(st["gaps_x"]))), int) == 0
-            self.gx.append(np.asarray(st["gaps_x"], float)[miss])
-            self.gy.append(np.asarray(st["gaps_y"], float)[miss])
+            status = np.asarray(st.get("gaps_status", np.zeros(len(st["gaps_x"]))), int)
+            for xs, ys, code in ((self.gx, self.gy, MISSING), (self.ux, self.uy, UNCERTAIN)):
+                xs.append(np.asarray(st["gaps_x"], float)[status == code])
+                ys.append(np.asarray(st["gaps_y"], float)[status == code])
 
     def _paste(self, a, left, top) -> None:
         s, k = self.fine, self.k
@@ -441,5 +451,6 @@ class QuickLook:
         y = np.concatenate(self.y) if self.y else np.empty(0)
         rows, cols = self.spec.cell_index(x, y)
         gaps = (np.concatenate(self.gx), np.concatenate(self.gy)) if self.gx else None
+        unc = (np.concatenate(self.ux), np.concatenate(self.uy)) if self.ux else None
         write_quicklook(path, self.chm, labels, rows, cols, spec=self.spec, title=title,
-                        overwrite=overwrite, gaps=gaps, stands=stands)
+                        overwrite=overwrite, gaps=gaps, stands=stands, uncertain=unc)

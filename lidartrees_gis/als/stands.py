@@ -262,7 +262,8 @@ def stand_cells(zone_core, chm_core, min_height: float) -> dict:
 
 
 #: the plantation counts summed per stand (as :class:`lidartrees_gis.als.sinks.TreesSummary`)
-STOCK = ("expected", "stocked", "suppressed", "missing", "extra", "planted_area_ha")
+STOCK = ("expected", "stocked", "suppressed", "missing", "uncertain", "uncertain_stocked",
+         "extra", "planted_area_ha")
 
 
 class StandsTally:
@@ -343,7 +344,7 @@ class StandsTally:
                 row.update(stocking_fields(fitted_spacing(spacing, self.spacings[k]), az,
                                            {f: self.stock[f][k] for f in STOCK}))
                 for f in ("planting_positions", "stocked_positions", "suppressed_trees",
-                          "missing_trees", "extra_tops"):
+                          "missing_trees", "uncertain_positions", "extra_tops"):
                     row[f] = int(row[f])
             rows.append(row)
         return rows
@@ -378,11 +379,17 @@ FIELD_DOCS = {
     "planting_positions": "positions of the stand's own planting lattice in its planted area",
     "stocked_positions": "planting positions with a tree top",
     "suppressed_trees": "planting positions without a top where a suppressed tree stands "
-                        "(returns at 30 % or more of the dominant height at the position)",
-    "missing_trees": "planting positions without a tree top (the gaps layer's points)",
+                        "(at least half the returns at the position at 30 % or more of the "
+                        "dominant height, allowing for their number)",
+    "missing_trees": "planting positions where no tree stands (the gaps layer's points of "
+                     "status missing)",
+    "uncertain_positions": "planting positions without a top whose returns leave it uncertain "
+                           "whether a suppressed tree stands there (status uncertain: a field "
+                           "check)",
     "extra_tops": "tops on a position another top already takes (forks, weeds)",
-    "stocking_pct": "planting positions with a tree (a top, or a suppressed tree) / planting "
-                    "positions of the stand's lattice",
+    "stocking_pct": "planting positions with a tree (a top, or a suppressed tree; an uncertain "
+                    "position counts by its share of crown returns) / planting positions of "
+                    "the stand's lattice",
     "planted_per_ha": "trees planted per hectare at this spacing (10,000 / (R x C))",
     "planted_area_ha": "the stand's planted area (canopy closed over gaps, ha)",
 }

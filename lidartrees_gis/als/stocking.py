@@ -483,15 +483,19 @@ def detect_planting(x, y, *, min_trees: int = PLANTING_MIN_TREES,
 def stocking_fields(spacing, azimuth: float, st: dict) -> dict:
     """The summary fields of plantation mode from the counts of
     :func:`lidartrees_gis.als.stocking.stocking` (``expected, stocked, missing, extra,
-    planted_area_ha``; summed over the tiles)."""
+    planted_area_ha``, and :func:`lidartrees_gis.als.positions.classify_gaps`'s
+    ``suppressed, uncertain, uncertain_stocked``; summed over the tiles)."""
     e = st["expected"]
     sup = st.get("suppressed", 0)
+    unc = st.get("uncertain_stocked", 0.0)
     if spacing is None:  # -spacing auto, and no lattice found
         spacing = (float("nan"), float("nan"))
     return {"spacing": f"{spacing[0]:g}x{spacing[1]:g}", "row_azimuth": azimuth,
             "planting_positions": e, "stocked_positions": st["stocked"],
-            "suppressed_trees": sup, "missing_trees": st["missing"], "extra_tops": st["extra"],
-            "stocking_pct": 100.0 * (st["stocked"] + sup) / e if e else float("nan"),
+            "suppressed_trees": sup, "missing_trees": st["missing"],
+            "uncertain_positions": st.get("uncertain", 0), "extra_tops": st["extra"],
+            # an uncertain position (a field check) counts by its share of crown returns
+            "stocking_pct": 100.0 * (st["stocked"] + sup + unc) / e if e else float("nan"),
             "planted_per_ha": 1e4 / (spacing[0] * spacing[1]),
             "planted_area_ha": st["planted_area_ha"]}
 

@@ -24,13 +24,16 @@ TREE_FIELDS = ("tree_id", "x", "y", "height", "crown_area", "crown_diameter", "n
 #: the integer ones (row and plant numbers: plantation mode, 0 for a tree on no position;
 #: stand: the index of the tree's stand with -stands, -1 for none, written as stand_id;
 #: suppressed: 1 for a tree at a planting position with no top of its own, under or beside
-#: its neighbours' crowns: no crown polygon, its height from the returns there)
+#: its neighbours' crowns: no crown polygon, its height from the returns there; 2 for the
+#: likelier answer at a position whose returns leave it uncertain (gaps layer status
+#: uncertain, its share of crown returns at least half: a field check))
 INT_FIELDS = ("tree_id", "n_cells", "row_number", "plant_number", "stand", "suppressed")
 
 #: plantation mode warns below this point density (points/m² of the area): planted trees lower
 #: than their in-row neighbours are often missed and empty positions misread (measured on
-#: benchmarks/_family.py's stands: stocking 4.8 points under the truth and 43 % of the reported
-#: gaps true at 2 points/m², -0.1 points and 86 % at 4); a delivery of 4 pts/m² measures 3.9-4.0
+#: benchmarks/_family.py's stands: stocking 6.6 points under the truth and 56 % of the reported
+#: gaps true at 2 points/m², with 40 % of the empty positions uncertain; -0.7 points and 96 % at
+#: 4); a delivery of 4 pts/m² measures 3.9-4.0
 PLANTATION_MIN_DENSITY = 3.5
 
 
@@ -41,8 +44,9 @@ def warn_sparse_plantation(density: float) -> None:
             f"{density:.1f} points/m²: below {PLANTATION_MIN_DENSITY:g} points/m² planted "
             "trees lower than their neighbours are often missed and the empty positions "
             "misread, so the stocking and the gaps are unreliable (measured on synthetic "
-            "stands: at 2 points/m² the stocking 4.8 points under the truth and 43 % of the "
-            "reported gaps true; at 4 points/m² -0.1 points and 86 %)"), stacklevel=3)
+            "stands: at 2 points/m² the stocking 6.6 points under the truth and 56 % of the "
+            "reported gaps true, 40 % of the empty positions uncertain; at 4 points/m² -0.7 "
+            "points and 96 %)"), stacklevel=3)
 
 
 def core_window(spec: GridSpec, core) -> tuple:
@@ -221,7 +225,8 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
     out["stocking"] = None if st is None else {
         **{k: st[k] for k in ("expected", "stocked", "missing", "extra", "planted_area_ha",
                               "gaps_x", "gaps_y", "gaps_row", "gaps_plant", "gaps_zone",
-                              "numbering", "suppressed", "gaps_status")},
+                              "numbering", "suppressed", "uncertain", "uncertain_stocked",
+                              "gaps_status", "gaps_share", "gaps_returns")},
         "azimuth": st["grid"].azimuth if st["grid"] is not None else float("nan"),
         "spacing": st["spacing"]}
     out["stand_stocking"] = None if st is None else st["zones"]
@@ -311,15 +316,20 @@ def _planted_separation(result, arr, spec, params: TreeParams, heights, spacing)
 
 
 def _suppressed_trees(st, tile: Tile, res: float, stands) -> dict | None:
-    """The suppressed trees of a tile's core: the empty planting positions classified as
-    holding one (:func:`lidartrees_gis.als.positions.classify_gaps`), as tree rows."""
+    """The suppressed trees of a tile's core, as tree rows: the empty planting positions
+    classified as holding one (:func:`lidartrees_gis.als.positions.classify_gaps`;
+    ``suppressed`` = 1), and the uncertain ones whose share of crown returns leans to a tree
+    (``suppressed`` = 2: the likelier answer, for a field check)."""
     from .metrics import tree_ids
+    from .positions import SUPPRESSED, SUPPRESSED_SHARE, UNCERTAIN
     from .stands import locate
 
     if st is None or "gaps_status" not in st:
         return None
     gx, gy = np.asarray(st["gaps_tree_x"], float), np.asarray(st["gaps_tree_y"], float)
-    keep = (np.asarray(st["gaps_status"]) == 1) & tile.in_core(gx, gy)
+    status = np.asarray(st["gaps_status"])
+    leans = (status == UNCERTAIN) & (np.asarray(st["gaps_share"]) >= SUPPRESSED_SHARE)
+    keep = ((status == SUPPRESSED) | leans) & tile.in_core(gx, gy)
     if not keep.any():
         return None
     n = int(keep.sum())
@@ -330,7 +340,7 @@ def _suppressed_trees(st, tile: Tile, res: float, stands) -> dict | None:
             "row_number": np.asarray(st["gaps_row"], np.int64)[keep],
             "plant_number": np.asarray(st["gaps_plant"], np.int64)[keep],
             "stand": locate(stands, gx[keep], gy[keep]),
-            "suppressed": np.ones(n, np.int64)}
+            "suppressed": np.where(leans[keep], 2, 1).astype(np.int64)}
 
 
 def _core_gap_trees(r: dict, t: dict, idx) -> int:

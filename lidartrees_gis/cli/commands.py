@@ -202,7 +202,8 @@ COMMANDS = {
                unit="m"),
          Param("spacing", "str", "Plantation mode: planting spacing ROWSxTREES in m, e.g. 3x2, "
                "or auto (found under the tops, per stand with -stands); "
-               "each empty planting position classified missing or suppressed (gaps layer), and "
+               "each empty planting position classified missing, suppressed or uncertain (gaps "
+               "layer), and "
                "stocking, added to the "
                "output", flag="-spacing"),
          Param("tops", "choice", "Tree tops: aw = adaptive window (crown scale x height); lm = "

@@ -29,9 +29,10 @@ def _draw_stands(ax, ids, geoms) -> None:
 
 
 def write_quicklook(path, chm, labels, rows, cols, *, spec=None, title=None, overwrite=False,
-                    gaps=None, stands=None):
+                    gaps=None, stands=None, uncertain=None):
     """Quick-look PNG: the CHM in colour classes with a legend, crown outlines and tree tops,
-    the missing trees of plantation mode (``gaps``: map x, y), map coordinates on the axes, a
+    the missing trees of plantation mode (``gaps``: map x, y) and its positions left to a field
+    check (``uncertain``: map x, y), map coordinates on the axes, a
     scale bar and a title (e.g. the stand summary). ``stands``: ``(ids, shapely polygons)``
     drawn as outlines labelled with their ids (map coordinates; needs ``spec``).
 
@@ -87,6 +88,11 @@ def write_quicklook(path, chm, labels, rows, cols, *, spec=None, title=None, ove
         n_gaps = gx.size
         ax.scatter(gx, gy, s=max(16.0, 3000.0 / max(len(r), 1) ** 0.5 / 4), marker="x",
                    c="#000000", linewidths=1.2, zorder=4, label=f"missing trees ({n_gaps:,})")
+    if uncertain is not None and len(uncertain[0]):
+        ux, uy = (np.asarray(v, float) for v in uncertain)
+        ax.scatter(ux, uy, s=max(16.0, 3000.0 / max(len(r), 1) ** 0.5 / 4), marker="^",
+                   facecolors="none", edgecolors="#ff7f00", linewidths=1.2, zorder=4,
+                   label=f"uncertain, to check ({ux.size:,})")
     ax.plot([], [], color=(0.85, 0.0, 0.55), label="crowns")
     if stands is not None and spec is not None:
         _draw_stands(ax, *stands)

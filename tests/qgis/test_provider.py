@@ -285,7 +285,11 @@ def test_plantation_mode_loads_gaps_and_evaluate_runs(qgis_app, tmp_path, stand)
     assert gaps and gaps[0].featureCount() >= 8 and gaps[0].crs().authid() == "EPSG:29194"
     rend = gaps[0].renderer()
     assert rend.type() == "categorizedSymbol" and rend.classAttribute() == "status"
-    assert {c.value() for c in rend.categories()} == {"missing", "suppressed"}
+    assert {c.value() for c in rend.categories()} == {"missing", "suppressed", "uncertain"}
+    # every feature falls in a category, with the evidence beside it
+    fields = gaps[0].fields().names()
+    assert {"status", "crown_share", "returns"} <= set(fields)
+    assert {f["status"] for f in gaps[0].getFeatures()} <= {"missing", "suppressed", "uncertain"}
     ref = tmp_path / "truth.csv"
     write_truth_csv(ref, truth)
     rep = tmp_path / "report.json"

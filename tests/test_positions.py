@@ -1,0 +1,87 @@
+"""What stands at an empty planting position (issue 23): missing, suppressed, or uncertain
+when the returns there are too few or too mixed to tell (als/positions.position_status)."""
+import numpy as np
+import pytest
+
+from lidartrees_gis.als.positions import (MISSING, SUPPRESSED, SUPPRESSED_SHARE, UNCERTAIN,
+                                          classify_gaps, position_status, wilson_interval)
+
+
+def test_wilson_interval_matches_its_formula():
+    # 7 of 10 at one standard error: centre (0.7 + 1/20) / 1.1, half-width sqrt(.021 + .0025) / 1.1
+    lo, hi = wilson_interval(7, 10, z=1.0)
+    c, h = (0.7 + 0.05) / 1.1, np.sqrt(0.7 * 0.3 / 10 + 1 / 400) / 1.1
+    assert lo == pytest.approx(c - h) and hi == pytest.approx(c + h)
+    lo, hi = wilson_interval(np.array([0, 5]), np.array([0, 5]))
+    assert lo[0] == 0.0 and hi[0] == 1.0  # no return: no knowledge
+    assert hi[1] == pytest.approx(1.0) and lo[1] > SUPPRESSED_SHARE  # 5 of 5
+
+
+def _disc(k_high, n, cx=0.0, cy=0.0, high=14.0, r=0.4, seed=0):
+    """``n`` returns within ``r`` of (cx, cy), ``k_high`` of them ``high`` m above ground."""
+    rng = np.random.default_rng(seed)
+    a, d = rng.uniform(0, 2 * np.pi, n), r * np.sqrt(rng.uniform(0, 1, n))
+    h = np.r_[np.full(k_high, high), np.zeros(n - k_high)]
+    return cx + d * np.cos(a), cy + d * np.sin(a), h
+
+
+@pytest.mark.parametrize("k, n, expected", [
+    (0, 12, MISSING), (1, 12, MISSING), (11, 12, SUPPRESSED), (12, 12, SUPPRESSED),
+    (3, 6, UNCERTAIN), (2, 5, UNCERTAIN), (4, 6, UNCERTAIN),  # a handful: cannot tell
+    (10, 20, UNCERTAIN), (4, 20, MISSING), (16, 20, SUPPRESSED)])
+def test_position_status_decides_only_when_the_interval_is_clear(k, n, expected):
+    x, y, h = _disc(k, n)
+    out = position_status([0.0], [0.0], (x, y, h), (3.0, 2.0), dominant_height=23.0)
+    assert out["status"][0] == expected
+    assert out["returns"][0] == n and out["share"][0] == pytest.approx(k / n)
+    if k / n >= SUPPRESSED_SHARE and expected != MISSING:  # a tree, or the likelier answer
+        assert out["height"][0] == pytest.approx(14.0)  # at its highest return
+    else:
+        assert np.isnan(out["height"][0]) and out["x"][0] == 0.0
+
+
+def test_position_with_no_return_is_missing_and_low_returns_do_not_count():
+    out = position_status([0.0, 10.0], [0.0, 0.0], _disc(0, 8, cx=10.0), (3.0, 2.0), 23.0)
+    assert list(out["status"]) == [MISSING, MISSING] and out["returns"][0] == 0
+    # returns of 5 m under a 23 m stand: below 30 % of the dominant height (a shrub)
+    out = position_status([0.0], [0.0], _disc(10, 10, high=5.0), (3.0, 2.0), 23.0)
+    assert out["status"][0] == MISSING
+
+
+def test_classify_gaps_counts_each_status_and_stocks_uncertain_by_their_share():
+    parts = [_disc(12, 12, cx=0.0), _disc(0, 12, cx=10.0), _disc(3, 6, cx=20.0),
+             _disc(4, 6, cx=30.0)]
+    pts = tuple(np.concatenate([p[i] for p in parts]) for i in range(3))
+    gx = np.array([0.0, 10.0, 20.0, 30.0])
+    st = {"expected": 100, "stocked": 96, "missing": 4, "gaps_x": gx, "gaps_y": np.zeros(4),
+          "gaps_zone": np.array([0, 0, 1, 1]),
+          "zones": {0: {"expected": 50, "stocked": 48, "missing": 2},
+                    1: {"expected": 50, "stocked": 48, "missing": 2}}}
+    out = classify_gaps(st, pts, (3.0, 2.0), 23.0)
+    assert list(out["gaps_status"]) == [SUPPRESSED, MISSING, UNCERTAIN, UNCERTAIN]
+    assert (out["missing"], out["suppressed"], out["uncertain"]) == (1, 1, 2)
+    assert out["uncertain_stocked"] == pytest.approx(3 / 6 + 4 / 6)
+    assert out["stocking_pct"] == pytest.approx(96 + 1 + 3 / 6 + 4 / 6)
+    assert out["zones"][0] | {} == {"expected": 50, "stocked": 48, "missing": 1,
+                                    "suppressed": 1, "uncertain": 0, "uncertain_stocked": 0.0}
+    assert out["zones"][1]["uncertain"] == 2 and out["zones"][1]["missing"] == 0
+
+
+def test_each_stand_s_positions_are_read_at_its_own_spacing():
+    """A tile holding stands of 3 x 2 m and 3.5 x 2.5 m reads each position within a quarter
+    of its own stand's smaller spacing (the tile's commonest spacing gave a tiled run other
+    counts than the whole file)."""
+    rng = np.random.default_rng(3)
+    a = rng.uniform(0, 2 * np.pi, 12)
+    r = np.r_[rng.uniform(0.52, 0.6, 6), rng.uniform(0.0, 0.3, 6)]  # crown returns farther out
+    h = np.r_[np.full(6, 14.0), np.zeros(6)]
+    pts = (r * np.cos(a), r * np.sin(a), h)
+    st = {"expected": 10, "stocked": 9, "missing": 1, "gaps_x": np.zeros(1),
+          "gaps_y": np.zeros(1), "gaps_zone": np.array([1]),
+          "zones": {0: {"expected": 5, "stocked": 5, "missing": 0, "spacing": (3.0, 2.0)},
+                    1: {"expected": 5, "stocked": 4, "missing": 1, "spacing": (3.5, 2.5)}}}
+    own = classify_gaps(st, pts, (3.0, 2.0), 23.0)
+    assert own["gaps_returns"][0] == 12 and own["gaps_share"][0] == pytest.approx(0.5)
+    assert own["gaps_status"][0] == UNCERTAIN
+    tile_wide = position_status([0.0], [0.0], pts, (3.0, 2.0), 23.0)
+    assert tile_wide["returns"][0] == 6 and tile_wide["status"][0] == MISSING
