@@ -162,7 +162,8 @@ def tile_first_tops(tile: Tile, area, params: TreeParams, plan: AreaPlan,
     from .stands import zones
 
     s = box_surfaces(area, tile.box, plan.res, surface, stats=plan.stats, whole_dtm=False,
-                     progress=progress)
+                     keep_points=params.looks_at_planting, progress=progress)
+    _keep_surfaces(tile, plan, params, s)
     if s is None:
         return {"x": np.empty(0), "y": np.empty(0), "zone": np.empty(0, np.int64)}
     t = detect_trees(s["chm"], s["spec"], params, heights=s["heights"])["table"]
@@ -171,6 +172,34 @@ def tile_first_tops(tile: Tile, area, params: TreeParams, plan: AreaPlan,
     zone = zones(stands, s["spec"]) if stands is not None else None
     z = top_zones(x, y, zone, s["spec"]) if zone is not None else np.full(x.size, -1, np.int64)
     return {"x": x, "y": y, "zone": z}
+
+
+def _surfaces_key(tile: Tile, plan: AreaPlan, params: TreeParams) -> tuple:
+    return ("tile surfaces", tuple(map(float, tile.box)), float(plan.res),
+            bool(params.looks_at_planting))
+
+
+def _keep_surfaces(tile: Tile, plan: AreaPlan, params: TreeParams, s) -> None:
+    """Plantation mode's first pass leaves the tile's surfaces in the run's shared cache
+    (:func:`lidartrees_gis.catalog.source.shared_cache`: a run of several tiles on this
+    machine), for :func:`tile_trees` to take instead of computing them again."""
+    from ..catalog.source import shared_cache
+
+    cache = shared_cache()
+    if cache is not None and s is not None:
+        cache.put_value(_surfaces_key(tile, plan, params), s, keep=True)
+
+
+def _kept_surfaces(tile: Tile, plan: AreaPlan, params: TreeParams):
+    """The surfaces :func:`_keep_surfaces` left for this tile, or None (none kept, dropped
+    for the cache's budget, or another process replacing them: a miss)."""
+    from ..catalog.source import shared_cache
+
+    cache = shared_cache()
+    if cache is None or params.spacing is None:
+        return None
+    s = cache.take(_surfaces_key(tile, plan, params))
+    return s if isinstance(s, dict) and "chm" in s else None
 
 
 def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: SurfaceOptions,
@@ -187,6 +216,8 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
     from .stands import locate, stand_cells, zones
 
     prog = as_progress(progress)
+    if surfaces is None and grids is not None:  # plantation mode's first pass kept them
+        surfaces = _kept_surfaces(tile, plan, params)
     s = surfaces if surfaces is not None else box_surfaces(
         area, tile.box, plan.res, surface, stats=plan.stats,
         keep_points=params.looks_at_planting, whole_dtm=False, progress=prog)

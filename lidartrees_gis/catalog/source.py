@@ -83,34 +83,56 @@ SHARED_CACHE_ENV = "LIDARTREES_SHARED_READ_CACHE"
 #: bytes of decompressed points a run keeps in its shared folder (temporary files: the
 #: system's page cache holds them, and may write them out)
 SHARED_CACHE_BYTES = int(float(os.environ.get("LIDARTREES_SHARED_CACHE_MB", 1024)) * 2 ** 20)
+#: the file names of :class:`SharedReadCache`'s values kept for one reader
+KEEP_PREFIX = "keep-"
 
 
 class SharedReadCache:
     """Decompressed files shared by the processes of one run on one machine (the calling
     process and its local Dask workers), as pickled files in a temporary folder: a file whose
     points two workers need (tiles on either side of the line between their runs of tiles)
-    is decompressed once. At most ``budget`` bytes; the oldest files go first. Every failure
-    (the folder gone, a file another process is replacing or dropping) is a miss."""
+    is decompressed once. At most ``budget`` bytes; the oldest files go first. Values kept for
+    one later reader (``keep``: plantation mode's tile surfaces between its two passes, taken
+    by :meth:`take`) go after every decompressed file, the newest first, so that a second pass
+    in the first one's order finds the first tiles' values. Every failure (the folder gone, a
+    file another process is replacing or dropping) is a miss."""
 
     def __init__(self, folder, budget: int = SHARED_CACHE_BYTES):
         self.folder = str(folder)
         self.budget = int(budget)
 
-    def _path(self, key) -> str:
+    def _path(self, key, keep: bool = False) -> str:
         import hashlib
 
-        return os.path.join(self.folder, hashlib.sha1(repr(key).encode()).hexdigest() + ".pkl")
+        name = hashlib.sha1(repr(key).encode()).hexdigest() + ".pkl"
+        return os.path.join(self.folder, KEEP_PREFIX + name if keep else name)
 
-    def get(self, key):
+    def get(self, key, keep: bool = False):
         import pickle
 
         try:
-            with open(self._path(key), "rb") as f:
+            with open(self._path(key, keep), "rb") as f:
                 return pickle.load(f)
         except (OSError, EOFError, pickle.UnpicklingError, AttributeError, ValueError):
             return None
 
+    def take(self, key):
+        """The value :meth:`put_value` kept (``keep=True``) under ``key``, removed from the
+        folder (its one reader has it), or None."""
+        value = self.get(key, keep=True)
+        try:
+            os.unlink(self._path(key, keep=True))
+        except OSError:
+            pass
+        return value
+
     def put(self, key, chunks: list, dropped: dict) -> None:
+        """A decompressed file: its chunks and the points dropped per class."""
+        self.put_value(key, (chunks, dict(dropped)))
+
+    def put_value(self, key, value, keep: bool = False) -> None:
+        """Any picklable ``value`` under ``key``; ``keep``: for one later reader (:meth:`take`),
+        dropped after every other file when the folder is over its budget."""
         import pickle
         import tempfile
 
@@ -118,8 +140,8 @@ class SharedReadCache:
         try:
             fd, tmp = tempfile.mkstemp(dir=self.folder, suffix=".part")
             with os.fdopen(fd, "wb") as f:
-                pickle.dump((chunks, dict(dropped)), f, protocol=pickle.HIGHEST_PROTOCOL)
-            os.replace(tmp, self._path(key))  # atomic: a reader sees the whole file or none
+                pickle.dump(value, f, protocol=pickle.HIGHEST_PROTOCOL)
+            os.replace(tmp, self._path(key, keep))  # atomic: a reader sees all of it or none
             tmp = None
             self._trim()
         except OSError:
@@ -137,9 +159,11 @@ class SharedReadCache:
                     st = e.stat()
                 except OSError:
                     continue
-                files.append((st.st_mtime_ns, st.st_size, e.path))
-        total = sum(f[1] for f in files)
-        for _, size, path in sorted(files):
+                keep = e.name.startswith(KEEP_PREFIX)  # after the others, newest first
+                files.append((keep, -st.st_mtime_ns if keep else st.st_mtime_ns, st.st_size,
+                              e.path))
+        total = sum(f[2] for f in files)
+        for _, _, size, path in sorted(files):
             if total <= self.budget:
                 break
             try:
