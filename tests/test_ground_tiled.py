@@ -159,3 +159,38 @@ def test_dtm_quality_over_a_folder_matches_the_merged_file(small_tiles):
     assert both.sum() >= 40 and np.nanmax(np.abs(rm1[both] - rm2[both])) < 0.05
     assert (d / "q_many" / "recommended_dtm.tif").exists()
     assert not list((d / "q_many").glob(".lidartrees-dtms-*")) and not list(d.glob(".lidartrees-dtms-*"))
+
+
+def test_chm_kp_dtm_in_tiles_equals_one_tile(tmp_path):
+    """`chm -dtm kp` over two bcts files in 100 m tiles: each tile runs the ground filter with
+    the area's densification cell and its grids on the tile's box (as `ground`'s tiles do), so
+    the DTM is one tile's (each tile's own cell left 8 cells 0.1-1.04 m apart)."""
+    import rasterio
+
+    from lidartrees_gis.als.surfaces import _tile_ground_grid
+    from lidartrees_gis.catalog.catalog import Catalog
+    from lidartrees_gis.catalog.source import TileSource
+    from lidartrees_gis.cli import main
+    from lidartrees_gis.ground.filter import refine_cell_for
+
+    files = [DATA / "lasR_bcts" / f"bcts_{k}.laz" for k in (1, 2)]
+    lst = tmp_path / "list.txt"
+    lst.write_text("\n".join(map(str, files)) + "\n")
+    cat = Catalog.open(lst)
+    e = cat.extent
+    tile = (e[0] - 20, e[1] - 20, e[0] + 120, e[1] + 120)
+    grid = _tile_ground_grid(TileSource(cat, tile))
+    assert grid["refine_res"] == refine_cell_for(cat.area, cat.count)
+    assert grid["extent"] == (e[0], e[1], e[0] + 120, e[1] + 120)  # clipped to the area
+    assert _tile_ground_grid(TileSource(cat, (e[0] - 1, e[1] - 1, e[2] + 1, e[3] + 1))) == {}
+    dtm = {}
+    for name, ts in (("tiled", "100"), ("one", "100000")):
+        out = tmp_path / f"dtm_{name}.tif"
+        assert main(["chm", str(lst), str(tmp_path / f"chm_{name}.tif"), "-dtm", "kp", "-tr",
+                     "1", "-tile_size", ts, "-dtm_out", str(out), "-workers", "1", "-q"]) == 0
+        with rasterio.open(out) as ds:
+            dtm[name] = ds.read(1, masked=True).astype(float).filled(np.nan)
+    d = np.abs(dtm["tiled"] - dtm["one"])
+    ok = np.isfinite(d)
+    assert ok.sum() > 100_000 and np.isfinite(dtm["one"]).sum() == ok.sum()
+    assert d[ok].max() < 0.01

@@ -264,9 +264,27 @@ def _terrain(src, method: DtmMethod, acc: _Accumulators, spec: GridSpec, dsm_raw
         from ..ground.filter import KrausPfeifer
 
         kp = KrausPfeifer() if method.g is None else KrausPfeifer(g=method.g, w=method.w)
-        pts, ground = ground_points(src, kp, SubProgress(prog, 0.82, 0.88))
+        pts, ground = ground_points(src, kp, SubProgress(prog, 0.82, 0.88),
+                                    **_tile_ground_grid(src))
         return dtm_from_ground(pts, ground, spec), kind
     return _dtm_from_file(method.path, spec, dsm_raw), kind
+
+
+def _tile_ground_grid(src) -> dict:
+    """The ground filter's grids for ``src``: a tile of a larger area takes the area's
+    densification cell and lays its grids on the tile's box (as ``ground``'s tiles do), so that
+    neighbouring tiles' DTMs agree (each tile's own density gave each its own cell); one file,
+    or one tile holding the whole area, the points' own (``{}``)."""
+    from ..ground.filter import refine_cell_for
+
+    cat, b = getattr(src, "catalog", None), getattr(src, "box", None)
+    if cat is None or b is None:
+        return {}
+    e = cat.extent
+    if b[0] <= e[0] and b[1] <= e[1] and b[2] >= e[2] and b[3] >= e[3]:
+        return {}
+    return {"refine_res": refine_cell_for(cat.area, cat.count),
+            "extent": (max(b[0], e[0]), max(b[1], e[1]), min(b[2], e[2]), min(b[3], e[3]))}
 
 
 def _dtm_from_file(path, spec: GridSpec, dsm_raw):

@@ -25,16 +25,18 @@ def filtered_points(pts, path) -> np.ndarray:
     return use
 
 
-def ground_points(src, params=None, progress=None):
+def ground_points(src, params=None, progress=None, *, refine_res=None, extent=None):
     """Run the ground filter on the points of ``src``: (points, ground mask). Points of the noise
-    classes (7, 18) take no part and are never ground."""
+    classes (7, 18) take no part and are never ground. ``refine_res``, ``extent``: those of
+    :func:`~lidartrees_gis.ground.filter.kraus_pfeifer` (a tile takes its area's cell)."""
 
     prog = as_progress(progress)
     pts = src.read_all(SubProgress(prog, 0.0, 0.2))
     use = filtered_points(pts, src.path)
     ground = np.zeros(len(pts), bool)
     ground[use], _ = kraus_pfeifer(pts.x[use], pts.y[use], pts.z[use], params,
-                                   progress=SubProgress(prog, 0.2, 0.8))
+                                   progress=SubProgress(prog, 0.2, 0.8),
+                                   refine_res=refine_res, extent=extent)
     if ground.sum() < 3:
         raise InputError(f"{src.path}: the ground filter kept {int(ground.sum())} points; "
                          "raise -w or lower -g")
