@@ -15,7 +15,7 @@ from ..errors import OutputExistsError
 from ..io.styles import GPKG_DATASET_OPTIONS, LAYER_STYLES, embed_styles
 from .metrics import tree_ids
 from .positions import MISSING, STATUS_NAMES, UNCERTAIN
-from .stocking import axial_mean, fitted_spacing, stocking_fields
+from .stocking import STOCK_COUNTS, axial_mean, fitted_spacing, stocking_fields
 from .tile import INT_FIELDS, TREE_FIELDS
 
 #: trees written to the GeoPackage together (one write per batch, not two per tile)
@@ -41,8 +41,7 @@ class Tally:
 class TreesSummary(Tally):
     """The stand summary of an area, summed tile by tile."""
 
-    STOCK = ("expected", "stocked", "suppressed", "missing", "uncertain", "uncertain_stocked",
-             "extra", "planted_area_ha")
+    STOCK = STOCK_COUNTS
 
     def __init__(self):
         super().__init__()

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import DataWarning, InputError
+from .stocking import STOCK_COUNTS
 
 #: the stand id field looked for when ``-stand_id`` is not given (case and accents ignored)
 ID_FIELDS = ("stand_id", "talhao", "id_talhao", "cod_talhao", "codigo_talhao", "stand", "codigo",
@@ -262,8 +263,7 @@ def stand_cells(zone_core, chm_core, min_height: float) -> dict:
 
 
 #: the plantation counts summed per stand (as :class:`lidartrees_gis.als.sinks.TreesSummary`)
-STOCK = ("expected", "stocked", "suppressed", "missing", "uncertain", "uncertain_stocked",
-         "extra", "planted_area_ha")
+STOCK = STOCK_COUNTS
 
 
 class StandsTally:

@@ -480,6 +480,12 @@ def detect_planting(x, y, *, min_trees: int = PLANTING_MIN_TREES,
     return g if g.fit >= min_fit else None
 
 
+#: the plantation counts a run sums over its tiles (per area and per stand), read by
+#: :func:`stocking_fields`
+STOCK_COUNTS = ("expected", "stocked", "suppressed", "missing", "uncertain", "uncertain_stocked",
+                "extra", "planted_area_ha")
+
+
 def stocking_fields(spacing, azimuth: float, st: dict) -> dict:
     """The summary fields of plantation mode from the counts of
     :func:`lidartrees_gis.als.stocking.stocking` (``expected, stocked, missing, extra,

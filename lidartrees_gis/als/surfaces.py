@@ -280,11 +280,10 @@ def _tile_ground_grid(src) -> dict:
     cat, b = getattr(src, "catalog", None), getattr(src, "box", None)
     if cat is None or b is None:
         return {}
-    e = cat.extent
-    if b[0] <= e[0] and b[1] <= e[1] and b[2] >= e[2] and b[3] >= e[3]:
+    box = cat.clip(b)
+    if box == cat.extent:  # the tile holds the whole area
         return {}
-    return {"refine_res": refine_cell_for(cat.area, cat.count),
-            "extent": (max(b[0], e[0]), max(b[1], e[1]), min(b[2], e[2]), min(b[3], e[3]))}
+    return {"refine_res": refine_cell_for(cat.area, cat.count), "extent": box}
 
 
 def _dtm_from_file(path, spec: GridSpec, dsm_raw):

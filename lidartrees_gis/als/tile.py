@@ -158,12 +158,18 @@ def tile_first_tops(tile: Tile, area, params: TreeParams, plan: AreaPlan,
     index: ``{"x", "y", "zone"}``. Each stand's lattice is fitted on all of them
     (:func:`lidartrees_gis.als.positions.fit_stand_grids`), as one file's run fits it on its
     own, so the tiles count positions on one lattice per stand."""
+    from ..catalog.source import shared_cache
     from .positions import top_zones
     from .stands import zones
 
+    # the surfaces are left in the run's shared folder (a run of several tiles on this
+    # machine) for :func:`tile_trees`, which then need not compute them again
+    cache = shared_cache()
     s = box_surfaces(area, tile.box, plan.res, surface, stats=plan.stats, whole_dtm=False,
-                     keep_points=params.looks_at_planting, progress=progress)
-    _keep_surfaces(tile, plan, params, s)
+                     keep_points=cache is not None and params.looks_at_planting,
+                     progress=progress)
+    if cache is not None and s is not None:
+        cache.put_value(_surfaces_key(tile, plan, params), s, keep=True)
     if s is None:
         return {"x": np.empty(0), "y": np.empty(0), "zone": np.empty(0, np.int64)}
     t = detect_trees(s["chm"], s["spec"], params, heights=s["heights"])["table"]
@@ -179,24 +185,13 @@ def _surfaces_key(tile: Tile, plan: AreaPlan, params: TreeParams) -> tuple:
             bool(params.looks_at_planting))
 
 
-def _keep_surfaces(tile: Tile, plan: AreaPlan, params: TreeParams, s) -> None:
-    """Plantation mode's first pass leaves the tile's surfaces in the run's shared cache
-    (:func:`lidartrees_gis.catalog.source.shared_cache`: a run of several tiles on this
-    machine), for :func:`tile_trees` to take instead of computing them again."""
-    from ..catalog.source import shared_cache
-
-    cache = shared_cache()
-    if cache is not None and s is not None:
-        cache.put_value(_surfaces_key(tile, plan, params), s, keep=True)
-
-
 def _kept_surfaces(tile: Tile, plan: AreaPlan, params: TreeParams):
-    """The surfaces :func:`_keep_surfaces` left for this tile, or None (none kept, dropped
+    """The surfaces :func:`tile_first_tops` left for this tile, or None (none kept, dropped
     for the cache's budget, or another process replacing them: a miss)."""
     from ..catalog.source import shared_cache
 
     cache = shared_cache()
-    if cache is None or params.spacing is None:
+    if cache is None:
         return None
     s = cache.take(_surfaces_key(tile, plan, params))
     return s if isinstance(s, dict) and "chm" in s else None

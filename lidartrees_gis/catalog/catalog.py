@@ -95,6 +95,12 @@ class Catalog:
         """Covered area (m²): the sum of the files' bounding boxes (tiles do not overlap)."""
         return float(sum(max(b[2] - b[0], 0) * max(b[3] - b[1], 0) for b in self.bounds))
 
+    def clip(self, box, buffer: float = 0.0) -> tuple:
+        """``box`` grown by ``buffer`` on every side and clipped to the area's extent."""
+        e = self.extent
+        return (max(box[0] - buffer, e[0]), max(box[1] - buffer, e[1]),
+                min(box[2] + buffer, e[2]), min(box[3] + buffer, e[3]))
+
     def points_in(self, box) -> float:
         """An estimate of the points inside ``box``: each file's count times the share of its
         bounding box inside ``box`` (a file of no area counts whole when it meets the box)."""

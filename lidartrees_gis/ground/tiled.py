@@ -124,9 +124,7 @@ def classify_buffered(f, area: Catalog, params: KrausPfeifer, buffer: float, ref
     src = area.read.open(f, filtered=False)
     pts = src.read_all(SubProgress(prog, 0.0, 0.25))
     use = filtered_points(pts, f)
-    b, e = area.bounds[k], area.extent
-    box = (max(b[0] - buffer, e[0]), max(b[1] - buffer, e[1]), min(b[2] + buffer, e[2]),
-           min(b[3] + buffer, e[3]))
+    box = area.clip(area.bounds[k], buffer)
     nb = _neighbours(area, k, box) if len(area.files) > 1 else None
     n_nb = 0 if nb is None else len(nb)
     x = np.concatenate([pts.x[use]] + ([nb.x] if n_nb else []))
