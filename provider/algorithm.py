@@ -309,7 +309,8 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
                                                                createByDefault=not opt)
             filt = {"gpkg": tr("GeoPackage (*.gpkg)"), "csv": "CSV (*.csv)", "png": "PNG (*.png)",
                     "las": "LAZ (*.laz);;LAS (*.las)",
-                    "json": f"{tr('JSON report (*.json)')};;{tr('Matched pairs CSV (*.csv)')}"}[kind]
+                    "json": ";;".join((tr("JSON report (*.json)"),
+                                       tr("Matched pairs CSV (*.csv)")))}[kind]
             return QgsProcessingParameterFileDestination(pid, label, filt, optional=opt,
                                                          createByDefault=not opt)
         if p.kind == "choice":

@@ -95,7 +95,8 @@ def test_messages_are_translated_with_their_values(restore_locale):
     assert install_translator("pt_BR").endswith("lidartrees_pt_BR.qm")
     msg = tr("Unknown parameter(s) {unknown} for {alg}; its parameters are {known}").format(
         unknown="FOO", alg="trees", known="INPUT, OUTPUT")
-    assert msg == "Parâmetro(s) desconhecido(s) FOO para trees; os parâmetros dele são INPUT, OUTPUT"
+    assert msg == ("Parâmetro(s) desconhecido(s) FOO para trees; os parâmetros dele são INPUT, "
+                   "OUTPUT")
     assert install_translator("en_US") is None
     assert tr("Number of trees") == "Number of trees"
 
