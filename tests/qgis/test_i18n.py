@@ -110,3 +110,36 @@ def test_plugin_zip_carries_the_translation(tmp_path):
     with zipfile.ZipFile(build(tmp_path / "p.zip")) as z:
         qm = z.read("lidartrees_qgis/i18n/lidartrees_pt_BR.qm")
     assert qm == (ROOT / "provider" / "i18n" / "lidartrees_pt_BR.qm").read_bytes()
+
+
+def test_installed_plugin_lists_portuguese_names_in_a_portuguese_profile(tmp_path):
+    """The zip installed in a fresh QGIS profile whose language is pt_BR (QGIS3.ini, as the
+    Options dialog writes it): qgis_process lists the algorithms in Portuguese."""
+    import os
+    import subprocess
+    import sys
+
+    qp = "/usr/bin/qgis_process.bin"
+    if not os.path.exists(qp):
+        pytest.skip("qgis_process.bin not installed (Debian package qgis)")
+    sys.path.insert(0, str(ROOT / "scripts"))
+    from build_plugin import build
+
+    plugins, home = tmp_path / "plugins", tmp_path / "home"
+    with zipfile.ZipFile(build(tmp_path / "p.zip")) as z:
+        z.extractall(plugins)
+    ini = home / ".local/share/QGIS/QGIS3/profiles/default/QGIS/QGIS3.ini"
+    ini.parent.mkdir(parents=True)
+    ini.write_text("[locale]\nuserLocale=pt_BR\noverrideFlag=true\n")
+    home.chmod(0o700)
+    env = dict(os.environ, QGIS_PLUGINPATH=str(plugins), HOME=str(home),
+               XDG_RUNTIME_DIR=str(home), QT_QPA_PLATFORM="offscreen")
+    env.pop("PYTHONPATH", None)
+    r = subprocess.run([qp, "plugins", "enable", "lidartrees_qgis"], env=env,
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stdout + r.stderr
+    r = subprocess.run([qp, "list"], env=env, capture_output=True, text=True, timeout=120)
+    lines = {ln.split("\t")[1]: ln.split("\t")[2] for ln in r.stdout.splitlines()
+             if ln.startswith("\tlidartrees:")}
+    assert lines["lidartrees:trees"].startswith("Árvores: topos, copas"), r.stdout[-2000:]
+    assert lines["lidartrees:stem"].startswith("Pontos do tronco, DAP")
