@@ -1,7 +1,7 @@
 """Finding the ``lidartrees`` command that the algorithms run.
 
 The algorithms run the ``lidartrees`` CLI in a subprocess, from the Python environment where
-lidartrees_gis and its dependencies are installed (see the README's QGIS section). The QGIS
+lidartrees_gis and its dependencies are installed (see docs/QGIS.md). The QGIS
 process itself only reads the parameter table (``lidartrees_gis.cli.commands``, standard library
 only; the plugin zip carries a copy), so numpy, GDAL and GEOS builds never meet QGIS's own.
 

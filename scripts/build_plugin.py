@@ -29,6 +29,8 @@ def build(out) -> Path:
         for f in sorted((ROOT / "styles").glob("*.qml")):
             z.write(f, f"{PLUGIN}/styles/{f.name}")
         z.write(ROOT / "README.md", f"{PLUGIN}/README.md")
+        for f in sorted((ROOT / "docs").rglob("*.md")):  # the README's links, in the zip too
+            z.write(f, f"{PLUGIN}/{f.relative_to(ROOT)}")
         z.write(ROOT / "LICENSE", f"{PLUGIN}/LICENSE")
     tmp.replace(out)
     return out
