@@ -18,11 +18,12 @@ _STATE = {"locale": None, "translator": None}
 
 
 def user_locale() -> str:
-    """QGIS's ``locale/userLocale`` setting (``''`` when unset)."""
-    from qgis.PyQt.QtCore import QSettings
+    """QGIS's ``locale/userLocale`` setting; the system's locale when it is unset (as QGIS
+    itself does without an override)."""
+    from qgis.PyQt.QtCore import QLocale, QSettings
 
     value = QSettings().value("locale/userLocale", "")
-    return value if isinstance(value, str) else ""
+    return value if isinstance(value, str) and value else QLocale.system().name()
 
 
 def qm_path(locale: str):
