@@ -44,3 +44,18 @@ def test_committed_qm_is_the_compiled_ts(tmp_path):
     qm = tmp_path / "x.qm"
     subprocess.run([exe, "-silent", str(TS), "-qm", str(qm)], check=True)
     assert qm.read_bytes() == TS.with_suffix(".qm").read_bytes(), "run python scripts/i18n.py"
+
+
+def test_command_not_found_message_names_an_install_that_works(monkeypatch, tmp_path):
+    """The package is not on PyPI: the plugin's message says to install it from its folder or
+    wheel, not ``pip install lidartrees_gis`` (which fails)."""
+    sys.path.insert(0, str(ROOT))
+    from provider import _lib
+
+    monkeypatch.delenv("LIDARTREES_EXE", raising=False)
+    monkeypatch.setenv("PATH", str(tmp_path))
+    monkeypatch.setenv("HOME", str(tmp_path))
+    msg = _lib.executable_error()
+    assert "'lidartrees' command was not found" in msg
+    assert "pip install /path/to/lidartrees_gis" in msg and "install lidartrees_gis " not in msg
+    assert "LIDARTREES_EXE" in msg and "lidartrees/executable" in msg
