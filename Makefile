@@ -5,7 +5,7 @@ QVENV ?= .venv-qgis
 PIP = $(VENV)/bin/pip -q --disable-pip-version-check
 QPIP = $(QVENV)/bin/pip -q --disable-pip-version-check
 
-.PHONY: demo test test-core test-qgis install qgis-system plugin bench clean
+.PHONY: demo test test-core test-qgis install qgis-system plugin i18n bench clean
 
 $(VENV)/.installed: pyproject.toml
 	test -x $(VENV)/bin/python || $(PYTHON) -m venv $(VENV)
@@ -42,6 +42,10 @@ test: test-core test-qgis
 
 plugin:
 	$(PYTHON) scripts/build_plugin.py dist/lidartrees_qgis.zip
+
+# the plugin's translations: provider/i18n/*.ts updated from the texts, *.qm compiled (lrelease)
+i18n:
+	$(PYTHON) scripts/i18n.py
 
 bench: $(VENV)/.installed
 	$(VENV)/bin/python benchmarks/bench_grid.py

@@ -12,14 +12,32 @@ from .als.rasters import chm_run
 from .io.options import ReadOptions
 from .io.output import OutputOptions
 from .progress import SubProgress, as_progress
-from .synthetic import CRS, make_stand, write_truth_csv, write_xyz_seed_dialect
+from .synthetic import CRS, StandParams, make_stand, write_truth_csv, write_xyz_seed_dialect
+
+
+def write_demo_stands(path, *, overwrite=False) -> None:
+    """The demo stand's two talhões, as a farm's stands layer: its southern half ``001-A`` and
+    northern half ``001-B`` (layer ``talhoes``, id field ``talhao``, the stand's CRS), for the
+    per-stand inventory (``lidartrees trees ... -stands talhoes.gpkg``)."""
+    import geopandas as gpd
+    import shapely
+
+    from .io.vector import write_gpkg
+
+    p = StandParams()
+    x0, y0, ym = p.origin_x, p.origin_y, p.origin_y + p.height / 2
+    frame = gpd.GeoDataFrame(
+        {"talhao": ["001-A", "001-B"]},
+        geometry=[shapely.box(x0, y0, x0 + p.width, ym),
+                  shapely.box(x0, ym, x0 + p.width, y0 + p.height)], crs=CRS)
+    write_gpkg(path, {"talhoes": frame}, overwrite=overwrite)
 
 
 def run_demo(outdir="lidartrees_demo", *, overwrite=False, progress=None) -> dict:
     """The main job with its defaults on a synthetic stand with known trees.
 
-    Writes the stand as XYZ text in seed 000's dialect (tab, decimal comma, SAD-69 / UTM 24S)
-    and its truth table, then runs ``chm`` and ``trees`` on the points with their default
+    Writes the stand as XYZ text in seed 000's dialect (tab, decimal comma, SAD-69 / UTM 24S),
+    its truth table and its two talhões (``talhoes.gpkg``), then runs ``chm`` and ``trees`` on the points with their default
     options (GeoTIFF CHM, GeoPackage of tops and crowns, quick-look PNG) and evaluates the tops
     against the truth as ``lidartrees evaluate`` does (Eysn et al. 2015 matching), plus the RMSE
     of the crown diameters against each tree's visible crown.
@@ -30,14 +48,15 @@ def run_demo(outdir="lidartrees_demo", *, overwrite=False, progress=None) -> dic
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
     xyz, truth_csv, chm = out / "stand.xyz", out / "truth.csv", out / "chm.tif"
-    gpkg, png = out / "trees.gpkg", out / "trees.png"
-    for p in (xyz, truth_csv, chm, gpkg, png):
+    gpkg, png, stands = out / "trees.gpkg", out / "trees.png", out / "talhoes.gpkg"
+    for p in (xyz, truth_csv, chm, gpkg, png, stands):
         if p.exists() and not overwrite:
             raise OutputExistsError(f"{p}: output exists; use -overwrite to replace it")
     prog.update(0.02, "generating the stand")
     pts, truth = make_stand()
     write_xyz_seed_dialect(xyz, pts)
     write_truth_csv(truth_csv, truth)
+    write_demo_stands(stands, overwrite=overwrite)
     prog.update(0.2, "canopy height model")
     read, out_opts = ReadOptions(a_srs=CRS), OutputOptions(overwrite=overwrite)
     r = chm_run(xyz, chm, read=read, out=out_opts, progress=SubProgress(prog, 0.2, 0.5))
@@ -60,7 +79,7 @@ def run_demo(outdir="lidartrees_demo", *, overwrite=False, progress=None) -> dic
         return {k: round(v, 3) if isinstance(v, float) else v for k, v in dct.items()}
 
     return {"points": len(pts), "trees_truth": int(len(truth["tree_id"])), "xyz": str(xyz),
-            "truth": str(truth_csv), "chm": str(chm), "trees": str(gpkg), "quicklook": str(png),
+            "truth": str(truth_csv), "stands": str(stands), "chm": str(chm), "trees": str(gpkg), "quicklook": str(png),
             "crs": r["crs"], "res": t["res"], "trees_found": t["trees"],
             "accuracy": rnd(ev["all"]), "accuracy_dominant": rnd(ev["dominant"]),
             "crown_diameter_rmse": round(cd_rmse, 3), "chm_max": round(float(np.nanmax(arr)), 2)}

@@ -1,7 +1,7 @@
 """Finding the ``lidartrees`` command that the algorithms run.
 
 The algorithms run the ``lidartrees`` CLI in a subprocess, from the Python environment where
-lidartrees_gis and its dependencies are installed (see the README's QGIS section). The QGIS
+lidartrees_gis and its dependencies are installed (see docs/QGIS.md). The QGIS
 process itself only reads the parameter table (``lidartrees_gis.cli.commands``, standard library
 only; the plugin zip carries a copy), so numpy, GDAL and GEOS builds never meet QGIS's own.
 
@@ -56,20 +56,26 @@ _CHECKED = {}
 
 def executable_error():
     """None when a working ``lidartrees`` command is found, else what to do."""
+    from .texts import tr
+
     exe = find_executable()
     if exe is None:
-        return ("LiDAR Trees: the 'lidartrees' command was not found. Install it (python3 -m venv "
-                "~/.venvs/lidartrees && ~/.venvs/lidartrees/bin/pip install lidartrees_gis) and, if "
-                "it is not on the PATH, set the environment variable LIDARTREES_EXE or the QGIS "
-                f"setting '{SETTING}' to its path.")
+        return tr("LiDAR Trees: the 'lidartrees' command was not found. Install the lidartrees_gis "
+                  "package in its own environment (python3 -m venv ~/.venvs/lidartrees && "
+                  "~/.venvs/lidartrees/bin/pip install /path/to/lidartrees_gis, the package's "
+                  "folder or wheel) and, if it is not on the PATH, set the environment variable "
+                  "LIDARTREES_EXE or the QGIS setting '{setting}' to its path.").format(
+                      setting=SETTING)
     if exe not in _CHECKED:
         try:
             r = subprocess.run([exe, "--version"], capture_output=True, text=True, timeout=60)
             _CHECKED[exe] = None if r.returncode == 0 else (
-                f"LiDAR Trees: '{exe} --version' failed: {(r.stderr or r.stdout).strip()[-500:]}")
+                "LiDAR Trees: '{exe} --version' failed: {error}",
+                dict(exe=exe, error=(r.stderr or r.stdout).strip()[-500:]))
         except (OSError, subprocess.SubprocessError) as exc:
-            _CHECKED[exe] = f"LiDAR Trees: cannot run {exe}: {exc}"
-    return _CHECKED[exe]
+            _CHECKED[exe] = ("LiDAR Trees: cannot run {exe}: {error}", dict(exe=exe, error=exc))
+    found = _CHECKED[exe]
+    return None if found is None else tr(found[0]).format(**found[1])
 
 
 def styles_dir():

@@ -27,9 +27,15 @@ from qgis.core import (QgsProcessingAlgorithm, QgsProcessingContext,
                        QgsProcessingParameterVectorLayer, QgsProcessing)
 
 from ._lib import commands, executable_error, find_executable, styles_dir
+from .texts import INPUT_FILTER_PARTS, LABELS, REFERENCES, label, reference, tr  # noqa: F401
 
-INPUT_FILTER = ("Point clouds and rasters (*.las *.laz *.xyz *.txt *.csv *.pts *.gz *.tif *.tiff);;"
-                "Tree tables (*.gpkg *.csv *.shp);;All files (*.*)")
+def input_filter() -> str:
+    """The file dialog's filter for point and raster inputs, its labels translated."""
+    pts, tables, every = (tr(t) for t in INPUT_FILTER_PARTS)
+    return (f"{pts} (*.las *.laz *.xyz *.txt *.csv *.pts *.gz *.tif *.tiff);;"
+            f"{tables} (*.gpkg *.csv *.shp);;{every} (*.*)")
+
+
 #: style applied to each raster/vector output when loaded (command, parameter name) -> qml
 STYLES = {("chm", "output"): "chm.qml", ("chm", "dtm_out"): "dtm_hillshade.qml",
           ("trees", "chm_out"): "chm.qml", ("grid", "output"): None}
@@ -41,34 +47,6 @@ LAS_OUTPUTS = {("ground", "output"), ("profile", "output")}
 GPKG_LAYERS = (("tree_tops", "tree_tops.qml"), ("crowns", "crowns.qml"))
 GAPS_LAYER = ("gaps", "gaps.qml")  # plantation mode (-spacing) only
 STANDS_LAYER = ("stands", "stands.qml")  # with -stands only
-CASTRO = ("Castro, F. da C. e (2006). Segmentação de imagens geradas por laser scanning "
-          "aerotransportado para delimitação de árvores individuais em áreas de reflorestamento de "
-          "eucaliptos. MSc dissertation, Universidade Tecnológica Federal do Paraná (UTFPR), "
-          "Curitiba")
-KHOSRAVIPOUR = ("Khosravipour, A., Skidmore, A. K., Isenburg, M., Wang, T. & Hussin, Y. A. (2014). "
-                "Generating pit-free canopy height models from airborne lidar. PE&RS 80(9), 863-872")
-REFERENCES = {
-    "chm": f"{CASTRO}, §2.3: DSM = highest point per cell, DTM = lowest, gap filling by the mean "
-           f"of the 8 neighbours (-chm max). {KHOSRAVIPOUR} (-chm pitfree, the default). "
-           "Leite et al.: C = sqrt(1/n).",
-    "grid": f"{CASTRO}, §2.3.",
-    "trees": f"{CASTRO}: Gaussian masks, grey morphology (abefec...), region growing after Hyyppä "
-             "et al. (2001) (Annex 2), Vincent & Soille (1991) watershed (Annex 1). Pantaleão, "
-             "Dutra & Macedo, TreeX: moving window + priority growing. "
-             f"{KHOSRAVIPOUR}. Eysn, L. et al. (2015), Forests 6, 1721-1747 (evaluation).",
-    "compare": f"{CASTRO}, Table 1.",
-    "evaluate": "Eysn, L. et al. (2015). A benchmark of lidar-based single tree detection methods "
-                "using heterogeneous forest data from the Alpine Space. Forests 6, 1721-1747.",
-    "ground": "Kraus, K. & Pfeifer, N. (1998) robust interpolation, as in FUSION's GroundFilter, "
-              "hierarchical after Pfeifer, N. et al. (2001), then densification against a TIN "
-              "of the ground; (g, w) for eucalyptus by Leite et al..",
-    "dtm-quality": "Leite et al.: 77 (g, w) DTMs judged by GLCM texture, PCA and "
-                   "k-means.",
-    "stem": "Buck, A. L. B. et al. (2014), Dmax filter for trunk points of Pinus in TLS clouds "
-            ".",
-    "profile": "Queiroz (2017), vertical segmentation of mangrove trees into roots, stem and "
-               "canopy from the point-density profile .",
-}
 _KEEP = []  # post-processors must outlive processAlgorithm
 
 
@@ -190,37 +168,6 @@ def run_cli(args, feedback):
     return (-1 if feedback.isCanceled() else rc), last_err
 
 
-#: readable labels for parameters whose help text is too long to be one
-LABELS = {
-    "stands": "Stands (talhões) polygon layer", "stand_id": "Stand id field",
-    "stand_csv": "Per-stand inventory CSV",
-    "a_srs": "CRS of the input (assign)", "t_srs": "Reproject to CRS",
-    "allow_no_crs": "Allow outputs without a CRS", "buffer": "Tile buffer",
-    "chm": "Canopy height model", "columns": "Text columns (x,y,z,...)",
-    "creation_options": "GeoTIFF creation options", "crown_scale": "Crown scale",
-    "delimiter": "Text delimiter", "detected": "Detected tree tops",
-    "drop_class": "Leave out LAS classes", "dtm": "Terrain model (DTM)",
-    "dtm_out": "Terrain model output", "fill": "Gap filling", "gshift": "Shift g automatically",
-    "hspacing": "Horizontal search spacing", "input": "Input", "keep_class": "Use only LAS classes",
-    "keep_outliers": "Keep points far above the canopy", "levels": "Filter levels",
-    "low": "Low-point depth", "method": "Crown segmentation", "output": "Output",
-    "prefix": "Output prefix", "reclassify": "Reclassify other classes too",
-    "reference": "Reference trees", "refine": "Densification passes",
-    "reference_dtm": "Reference ground (DTM GeoTIFF; auto = class-2 points; none)",
-    "rule": "Boundary rule", "area": "Reference area (xmin,ymin,xmax,ymax or polygons)",
-    "res": "Cell size", "scheduler": "Dask scheduler address",
-    "skip_invalid": "Skip malformed text lines", "slope": "Slope tolerance factor",
-    "smooth": "Smoothing", "spacing": "Planting spacing (rows x trees)",
-    "strict": "Strict local maxima", "tile_size": "Tile size", "tin_cell": "TIN vertex cell",
-    "tolerance": "Tolerance above the surface", "tops": "Tree-top rule",
-    "treex_centred": "TreeX: also highest of the centred window",
-    "treex_local": "TreeX: also a local maximum of 8 neighbours", "w_growth": "w growth per level",
-    "window_factor": "Window factor", "workers": "Workers",
-    "min_separation": "Smallest distance between tops",
-    "planting": "Planting lattice under the tops (without spacing)",
-}
-
-
 def qgis_message(cmd, msg: str) -> str:
     """A CLI error message in QGIS words: each option flag (``-tr``, ``-overwrite``) becomes the
     parameter's label in quotes."""
@@ -241,12 +188,7 @@ def qgis_message(cmd, msg: str) -> str:
     return msg
 
 
-def _label(p):
-    unit = f" ({p.unit})" if p.unit else ""
-    if p.name in LABELS:
-        return LABELS[p.name] + unit
-    return p.help.split(";")[0].split(" (")[0].rstrip(".") + unit if len(p.help) < 60 else (
-        p.name.replace("_", " ").capitalize() + unit)
+_label = label  # the name used before the texts moved to texts.py
 
 
 def _output_kind(cmd_name, p):
@@ -286,8 +228,9 @@ def vector_source(layer, pid):
     err = QgsVectorFileWriter.writeAsVectorFormatV3(layer, tmp, QgsCoordinateTransformContext(),
                                                     opts)
     if err[0] != QgsVectorFileWriter.NoError:
-        raise QgsProcessingException(f"{pid}: cannot save the layer '{layer.name()}' for the "
-                                     f"command ({err[1]})")
+        raise QgsProcessingException(tr("{pid}: cannot save the layer '{name}' for the command "
+                                        "({error})").format(pid=pid, name=layer.name(),
+                                                            error=err[1]))
     return tmp
 
 
@@ -305,23 +248,23 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
         return self._name
 
     def displayName(self):  # noqa: N802
-        return f"{self.cmd.summary} ({self._name})"
+        return f"{tr(self.cmd.summary)} ({self._name})"
 
     def group(self):
-        return self.cmd.group
+        return tr(self.cmd.group)
 
     def groupId(self):  # noqa: N802
         return self.cmd.group.lower()
 
     def shortHelpString(self):  # noqa: N802
-        lines = [self.cmd.summary + ".", ""]
+        lines = [tr(self.cmd.summary) + ".", ""]
         for p in self.cmd.params:
             if p.name == "json":
                 continue
-            lines.append(f"<b>{p.name.upper()}</b>: {p.help}")
+            lines.append(f"<b>{p.name.upper()}</b>: {tr(p.help)}")
         if self._name in REFERENCES:
-            lines += ["", "<i>Reference:</i> " + REFERENCES[self._name]]
-        lines += ["", f"Command line: lidartrees {self._name} --help"]
+            lines += ["", f"<i>{tr('Reference:')}</i> {reference(self._name)}"]
+        lines += ["", f"{tr('Command line:')} lidartrees {self._name} --help"]
         return "<br>".join(lines)
 
     def createInstance(self):  # noqa: N802
@@ -342,19 +285,19 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
             self.addParameter(d)
             if p.kind == "input" and self._name in LAYER_INPUT:
                 self.addParameter(QgsProcessingParameterPointCloudLayer(
-                    "INPUT_LAYER", "…or a point-cloud layer loaded in QGIS", optional=True))
+                    "INPUT_LAYER", tr("…or a point-cloud layer loaded in QGIS"), optional=True))
         if self._name == "info":
-            self.addOutput(QgsProcessingOutputString("JSON", "Information (JSON)"))
-            self.addOutput(QgsProcessingOutputNumber("POINTS", "Number of points"))
+            self.addOutput(QgsProcessingOutputString("JSON", tr("Information (JSON)")))
+            self.addOutput(QgsProcessingOutputNumber("POINTS", tr("Number of points")))
         if self._name == "trees":
-            self.addOutput(QgsProcessingOutputNumber("TREES", "Number of trees"))
+            self.addOutput(QgsProcessingOutputNumber("TREES", tr("Number of trees")))
 
     def _make(self, p):
         pid, label = p.name.upper(), _label(p)
         optional = not (p.positional or p.required)
         if p.kind == "input":
             return QgsProcessingParameterFile(pid, label, QgsProcessingParameterFile.File,
-                                              fileFilter=INPUT_FILTER,
+                                              fileFilter=input_filter(),
                                               optional=self._name in LAYER_INPUT)
         if p.kind in ("output", "outdir"):
             kind = _output_kind(self._name, p)
@@ -364,9 +307,10 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
             if kind == "raster":
                 return QgsProcessingParameterRasterDestination(pid, label, optional=opt,
                                                                createByDefault=not opt)
-            filt = {"gpkg": "GeoPackage (*.gpkg)", "csv": "CSV (*.csv)", "png": "PNG (*.png)",
+            filt = {"gpkg": tr("GeoPackage (*.gpkg)"), "csv": "CSV (*.csv)", "png": "PNG (*.png)",
                     "las": "LAZ (*.laz);;LAS (*.las)",
-                    "json": "JSON report (*.json);;Matched pairs CSV (*.csv)"}[kind]
+                    "json": ";;".join((tr("JSON report (*.json)"),
+                                       tr("Matched pairs CSV (*.csv)")))}[kind]
             return QgsProcessingParameterFileDestination(pid, label, filt, optional=opt,
                                                          createByDefault=not opt)
         if p.kind == "choice":
@@ -386,7 +330,7 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
                                                      [QgsProcessing.TypeVectorPolygon],
                                                      optional=True)
         if p.kind == "res":
-            return QgsProcessingParameterString(pid, "Cell size (m), or auto",
+            return QgsProcessingParameterString(pid, tr("Cell size (m), or auto"),
                                                 optional=not p.required)
         return QgsProcessingParameterString(pid, label, defaultValue=p.default, optional=True)
 
@@ -446,12 +390,12 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
                 layer = parameters["INPUT_LAYER"]  # a layer object QGIS could not open itself
         if layer is None:
             raise QgsProcessingException(
-                "Give the input: a point file (Input), or a point-cloud layer loaded in QGIS")
+                tr("Give the input: a point file (Input), or a point-cloud layer loaded in QGIS"))
         src = layer.source().split("|")[0]
         if not os.path.isfile(src):
             raise QgsProcessingException(
-                f"The point-cloud layer '{layer.name()}' is not a local file ({src}); export it "
-                "to LAS/LAZ first")
+                tr("The point-cloud layer '{name}' is not a local file ({src}); export it to "
+                   "LAS/LAZ first").format(name=layer.name(), src=src))
         return src
 
     # -- run -------------------------------------------------------------------------------
@@ -466,8 +410,9 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
         unknown = sorted(k for k in parameters if k not in known)
         if unknown:
             raise QgsProcessingException(
-                f"Unknown parameter(s) {', '.join(unknown)} for {self.displayName()}; its "
-                f"parameters are {', '.join(sorted(known))}")
+                tr("Unknown parameter(s) {unknown} for {alg}; its parameters are {known}").format(
+                    unknown=", ".join(unknown), alg=self.displayName(),
+                    known=", ".join(sorted(known))))
         kw = {p.name: self._value(p, parameters, context) for p in cmd.params if p.name != "json"}
         feedback.pushCommandInfo(command_line(cmd, kw))
         fd, result_file = tempfile.mkstemp(prefix="lidartrees-", suffix=".json")
@@ -475,7 +420,7 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
         try:
             rc, last = run_cli(command_args(cmd, kw) + ["--result-json", result_file], feedback)
             if rc == -1:
-                feedback.reportError("cancelled: no output written")
+                feedback.reportError(tr("cancelled: no output written"))
                 return {}
             if rc != 0:
                 raise QgsProcessingException(qgis_message(cmd, last.split("error: ", 1)[-1])

@@ -4,8 +4,11 @@ from qgis.core import QgsApplication
 
 class LidarTreesPlugin:
     def __init__(self, iface=None):
+        from .translation import install_translator
+
         self.iface = iface
         self.provider = None
+        install_translator()  # pt_BR when QGIS's locale/userLocale starts with pt
 
     def initProcessing(self):  # noqa: N802 - QGIS API name
         from .provider import LidarTreesProvider

@@ -2,9 +2,15 @@
 from qgis.core import QgsProcessingProvider
 
 from ._lib import commands, executable_error
+from .texts import tr
+from .translation import install_translator
 
 
 class LidarTreesProvider(QgsProcessingProvider):
+    def __init__(self):
+        super().__init__()
+        install_translator()  # QGIS's language, before any algorithm is created
+
     def id(self):
         return "lidartrees"
 
@@ -12,11 +18,12 @@ class LidarTreesProvider(QgsProcessingProvider):
         return "LiDAR Trees"
 
     def longName(self):  # noqa: N802
-        return "LiDAR Trees (lidartrees_gis)"
+        return tr("LiDAR Trees (lidartrees_gis)")
 
     def loadAlgorithms(self):  # noqa: N802
         from .algorithm import CommandAlgorithm
 
+        install_translator()  # the language may have changed since the provider was made
         for cmd in commands().values():
             self.addAlgorithm(CommandAlgorithm(cmd.name))
 

@@ -84,7 +84,7 @@ def test_each_stand_gets_its_own_lattice_and_stocking(two_stands, capsys):
         t = two_stands["truth"][s["stand_id"]]
         true_pct = 100 * (s["planting_positions"] - t["missing"]) / s["planting_positions"]
         # T-02's crowns (radius 1.7 m on 2 m in the row) overlap: a missing tree under its
-        # neighbours' crowns may be taken for a suppressed one (README, known limits)
+        # neighbours' crowns may be taken for a suppressed one (docs/LIMITS.md)
         tol = 1.0 if s["stand_id"] == "T-01" else 1.5
         assert abs(s["stocking_pct"] - true_pct) <= tol, (s["stand_id"], s["stocking_pct"],
                                                           true_pct)

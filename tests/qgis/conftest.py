@@ -31,6 +31,10 @@ def qgis_app():
 
     app = QgsApplication([], False)
     app.initQgis()
+    from qgis.PyQt.QtCore import QSettings
+
+    # the provider speaks QGIS's language (tests/qgis/test_i18n.py): English here, whatever LANG
+    QSettings().setValue("locale/userLocale", "en_US")
     from processing.core.Processing import Processing
 
     Processing.initialize()
