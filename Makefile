@@ -20,9 +20,9 @@ demo: $(VENV)/.installed
 
 # QGIS 3.22 from Debian (python3-qgis, qgis), installed when missing (needs root, as in CI)
 qgis-system:
-	@if ! dpkg -s python3-qgis qgis python3-venv >/dev/null 2>&1; then \
+	@if ! dpkg -s python3-qgis qgis python3-venv qttools5-dev-tools >/dev/null 2>&1; then \
 	  apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get -o DPkg::Lock::Timeout=600 \
-	    install -y -q --no-install-recommends python3-qgis qgis python3-venv; fi
+	    install -y -q --no-install-recommends python3-qgis qgis python3-venv qttools5-dev-tools; fi
 
 # Debian's Python with QGIS; numpy < 2 for QGIS's GDAL bindings (and to test numpy 1.24)
 $(QVENV)/.installed: pyproject.toml | qgis-system
