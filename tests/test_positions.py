@@ -62,9 +62,15 @@ def test_classify_gaps_counts_each_status_and_stocks_uncertain_by_their_share():
     assert (out["missing"], out["suppressed"], out["uncertain"]) == (1, 1, 2)
     assert out["uncertain_stocked"] == pytest.approx(3 / 6 + 4 / 6)
     assert out["stocking_pct"] == pytest.approx(96 + 1 + 3 / 6 + 4 / 6)
+    # the interval's variance: each uncertain position a Bernoulli of its share; a call on 12
+    # returns all one way is all but sure
+    var0 = out["zones"][0].pop("stocked_var")
+    assert 0.0 < var0 < 1e-3
     assert out["zones"][0] | {} == {"expected": 50, "stocked": 48, "missing": 1,
                                     "suppressed": 1, "uncertain": 0, "uncertain_stocked": 0.0}
     assert out["zones"][1]["uncertain"] == 2 and out["zones"][1]["missing"] == 0
+    assert out["zones"][1]["stocked_var"] == pytest.approx(0.25 + 2 / 9, abs=1e-9)
+    assert out["stocked_var"] == pytest.approx(var0 + 0.25 + 2 / 9, abs=1e-9)
 
 
 def test_each_stand_s_positions_are_read_at_its_own_spacing():

@@ -305,8 +305,13 @@ def _stands_result(stands, rows, tally, stand_csv) -> dict:
         text = (f"{r['trees']} trees, {_round(r['trees_per_ha'], 0):g}/ha, mean height "
                 f"{_round(r['mean_height'], 1)} m, dominant height "
                 f"{_round(r['dominant_height'], 1)} m, {r['area_ha']:.2f} ha")
-        if "stocking_pct" in r:
-            text += (f", stocking {_round(r['stocking_pct'], 1)} % ({r['missing_trees']} "
+        if "stocking_pct" in r and r["stocking_pct"] is None:
+            text += f", {r['lattice']}"
+        elif "stocking_pct" in r:
+            text += (f", stocking {_round(r['stocking_pct'], 1)} % "
+                     f"(95 % interval {_round(r['stocking_pct_low'], 1)}-"
+                     f"{_round(r['stocking_pct_high'], 1)}; "
+                     f"{r['missing_trees']} "
                      f"missing, {r['suppressed_trees']} suppressed, "
                      f"{r['uncertain_positions']} uncertain of "
                      f"{r['planting_positions']} positions, rows at {r['row_azimuth']:.1f}°)")
@@ -391,9 +396,11 @@ def _trees_result(output, area, plan, summary, row, p, layers, surface) -> dict:
            "planting_tiles": int(row["planting_tiles"]),
            "tree_ids": summary.tree_ids}
     if p.spacing is not None:
-        out.update({k: row[k] for k in ("spacing", "row_azimuth", "planting_positions",
-                                         "missing_trees", "uncertain_positions", "numbering")})
-        out["stocking_pct"] = _round(row["stocking_pct"], 2)
+        out.update({k: row[k] for k in ("lattice", "spacing", "row_azimuth",
+                                         "planting_positions", "missing_trees",
+                                         "uncertain_positions", "numbering")})
+        for k in ("stocking_pct", "stocking_pct_low", "stocking_pct_high"):
+            out[k] = _round(row[k], 2)
     if output is None:
         out["layers"] = layers.frames()
     return out

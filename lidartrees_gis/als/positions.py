@@ -289,7 +289,7 @@ def classify_gaps(st: dict, points, spacing, dominant_height: float,
     st["gaps_share"], st["gaps_returns"] = share, c["returns"]
     st["gaps_height"], st["gaps_tree_x"], st["gaps_tree_y"] = c["height"], c["x"], c["y"]
     total = int(st["missing"])
-    st.update(counts(status, share))
+    st.update(counts(status, share, c["returns"]))
     if total != status.size:
         raise ValueError(f"{total} missing positions but {status.size} gaps")
     e = st["expected"]
@@ -297,16 +297,37 @@ def classify_gaps(st: dict, points, spacing, dominant_height: float,
                           / e if e else float("nan"))
     if "zones" in st:
         gz = np.asarray(st.get("gaps_zone", np.full(status.size, -1)))
-        st["zones"] = {k: {**z, **counts(status[gz == k], share[gz == k])}
+        st["zones"] = {k: {**z, **counts(status[gz == k], share[gz == k],
+                                          c["returns"][gz == k])}
                        for k, z in st["zones"].items()}
     return st
 
 
-def counts(status, share) -> dict:
-    """The empty positions' counts by status: ``missing, suppressed, uncertain`` and
-    ``uncertain_stocked`` (the uncertain positions' shares summed)."""
+def stocked_probability(k, n):
+    """The chance that the crown-return share behind ``k`` of ``n`` returns is at least
+    :data:`SUPPRESSED_SHARE` (a tree stands there): the Jeffreys posterior Beta(k + 1/2,
+    n - k + 1/2) above the threshold; 0 with no return."""
+    from scipy.special import betainc
+
+    k, n = np.asarray(k, float), np.asarray(n, float)
+    p = 1.0 - betainc(k + 0.5, np.maximum(n - k, 0.0) + 0.5, SUPPRESSED_SHARE)
+    return np.where(n > 0, p, 0.0)
+
+
+def counts(status, share, returns=None) -> dict:
+    """The empty positions' counts by status: ``missing, suppressed, uncertain``,
+    ``uncertain_stocked`` (the uncertain positions' shares summed) and ``stocked_var``: the
+    variance of the number of stocked positions among them (each uncertain one a Bernoulli of
+    its share, each missing or suppressed one a Bernoulli of the chance that its call is wrong,
+    :func:`stocked_probability`), from which the stocking's interval is drawn."""
     status = np.asarray(status)
+    share = np.asarray(share, float)
     unc = status == UNCERTAIN
+    if returns is None:
+        returns = np.zeros(status.size)
+    n = np.asarray(returns, float)
+    p = np.where(unc, share, stocked_probability(np.round(share * n), n))
     return {"missing": int((status == MISSING).sum()),
             "suppressed": int((status == SUPPRESSED).sum()), "uncertain": int(unc.sum()),
-            "uncertain_stocked": float(np.asarray(share, float)[unc].sum())}
+            "uncertain_stocked": float(share[unc].sum()),
+            "stocked_var": float((p * (1.0 - p)).sum())}

@@ -130,7 +130,7 @@ class TreesSummary(Tally):
             ok = [(a, e) for a, e in self.azimuths if e and np.isfinite(a)]
             az = axial_mean(*zip(*ok)) if ok else np.nan
             row.update(stocking_fields(fitted_spacing(params.spacing, self.spacings), az,
-                                       self.stock))
+                                       self.stock, tops=n))
             # how row_number and plant_number count (tiled runs: each tile's own lattice)
             row["numbering"] = self.numbering + (" (each tile counts its own)"
                                                  if len(plan.tiles) > 1 else "")

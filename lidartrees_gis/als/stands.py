@@ -342,7 +342,7 @@ class StandsTally:
             if spacing is not None:
                 az = axial_mean(*zip(*self.azimuths[k])) if self.azimuths[k] else np.nan
                 row.update(stocking_fields(fitted_spacing(spacing, self.spacings[k]), az,
-                                           {f: self.stock[f][k] for f in STOCK}))
+                                           {f: self.stock[f][k] for f in STOCK}, tops=n))
                 for f in ("planting_positions", "stocked_positions", "suppressed_trees",
                           "missing_trees", "uncertain_positions", "extra_tops"):
                     row[f] = int(row[f])
@@ -390,6 +390,11 @@ FIELD_DOCS = {
     "stocking_pct": "planting positions with a tree (a top, or a suppressed tree; an uncertain "
                     "position counts by its share of crown returns) / planting positions of "
                     "the stand's lattice",
+    "stocking_pct_low": "lower end of the stocking's 95 % interval (from the calls at the "
+                        "empty positions: each uncertain one by its share, each missing or "
+                        "suppressed one by the chance that its returns mislead)",
+    "stocking_pct_high": "upper end of the stocking's 95 % interval",
+    "lattice": "found, or why no planting lattice was found (its stocking fields then empty)",
     "planted_per_ha": "trees planted per hectare at this spacing (10,000 / (R x C))",
     "planted_area_ha": "the stand's planted area (canopy closed over gaps, ha)",
 }

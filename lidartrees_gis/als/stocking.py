@@ -495,25 +495,51 @@ def detect_planting(x, y, *, min_trees: int = PLANTING_MIN_TREES,
 #: the plantation counts a run sums over its tiles (per area and per stand), read by
 #: :func:`stocking_fields`
 STOCK_COUNTS = ("expected", "stocked", "suppressed", "missing", "uncertain", "uncertain_stocked",
-                "extra", "planted_area_ha")
+                "stocked_var", "extra", "planted_area_ha")
 
 
-def stocking_fields(spacing, azimuth: float, st: dict) -> dict:
+#: the stocking interval's standard normal quantile (95 %)
+STOCKING_Z = 1.959964
+
+
+def stocking_fields(spacing, azimuth: float, st: dict, *, tops: int | None = None) -> dict:
     """The summary fields of plantation mode from the counts of
     :func:`lidartrees_gis.als.stocking.stocking` (``expected, stocked, missing, extra,
     planted_area_ha``, and :func:`lidartrees_gis.als.positions.classify_gaps`'s
-    ``suppressed, uncertain, uncertain_stocked``; summed over the tiles)."""
+    ``suppressed, uncertain, uncertain_stocked, stocked_var``; summed over the tiles).
+
+    ``stocking_pct_low``, ``stocking_pct_high``: its 95 % interval from the empty positions'
+    calls (``stocked_var``), clipped to what the positions allow. With no lattice (``spacing``
+    None: ``-spacing auto`` found none) the stocking fields are empty (None) and ``lattice``
+    says why; ``tops``: the tree tops the lattice was looked for under."""
     e = st["expected"]
     sup = st.get("suppressed", 0)
     unc = st.get("uncertain_stocked", 0.0)
-    if spacing is None:  # -spacing auto, and no lattice found
-        spacing = (float("nan"), float("nan"))
-    return {"spacing": f"{spacing[0]:g}x{spacing[1]:g}", "row_azimuth": azimuth,
+    if spacing is None or not e:  # -spacing auto and no lattice found, or no position
+        if spacing is None:
+            why = (f"no planting lattice: {tops} tops, fewer than the {PLANTING_MIN_TREES} "
+                   "needed" if tops is not None and tops < PLANTING_MIN_TREES else
+                   "no planting lattice: the tops lie in no rows of one direction and spacing")
+        else:
+            why = "no planting position in the planted area"
+        return {"lattice": why, "spacing": None, "row_azimuth": None,
+                "planting_positions": 0, "stocked_positions": 0, "suppressed_trees": 0,
+                "missing_trees": 0, "uncertain_positions": 0, "extra_tops": 0,
+                "stocking_pct": None, "stocking_pct_low": None, "stocking_pct_high": None,
+                "planted_per_ha": None, "planted_area_ha": st.get("planted_area_ha", 0.0)}
+    sure = st["stocked"] + sup
+    point = sure + unc
+    half = STOCKING_Z * float(np.sqrt(max(st.get("stocked_var", 0.0), 0.0)))
+    low = min(max(point - half, 0.0), point)
+    high = max(min(point + half, float(e)), point)
+    return {"lattice": "found",
+            "spacing": f"{spacing[0]:g}x{spacing[1]:g}", "row_azimuth": azimuth,
             "planting_positions": e, "stocked_positions": st["stocked"],
             "suppressed_trees": sup, "missing_trees": st["missing"],
             "uncertain_positions": st.get("uncertain", 0), "extra_tops": st["extra"],
             # an uncertain position (a field check) counts by its share of crown returns
-            "stocking_pct": 100.0 * (st["stocked"] + sup + unc) / e if e else float("nan"),
+            "stocking_pct": 100.0 * point / e,
+            "stocking_pct_low": 100.0 * low / e, "stocking_pct_high": 100.0 * high / e,
             "planted_per_ha": 1e4 / (spacing[0] * spacing[1]),
             "planted_area_ha": st["planted_area_ha"]}
 

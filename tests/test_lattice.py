@@ -1,0 +1,70 @@
+"""Plantation mode's lattice on narrow spacings, its stocking interval, and a stand without a
+lattice reported in words, never as NaN (issue 41)."""
+import json
+import subprocess
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+from _family import StandSpec, make_stand  # noqa: E402
+from bench_stands import write_las  # noqa: E402
+
+
+def _run(*args):
+    res = Path(str(args[2]) + ".json")
+    out = subprocess.run([sys.executable, "-m", "lidartrees_gis.cli", *map(str, args), "-q",
+                          "--result-json", str(res)], capture_output=True, text=True, cwd=ROOT)
+    assert out.returncode == 0, out.stderr
+    return json.loads(res.read_text())
+
+
+@pytest.mark.parametrize("azimuth", [20.0, 130.0])
+def test_3x15_lattice_found_and_stocking_within_its_interval(tmp_path, azimuth):
+    # 3 x 1.5 m rows: the CHM grid's favoured directions put the neighbour histogram's peak
+    # 3° off the rows at 130°; the lattice must still be found, to 0.05 m and 1°
+    s = replace(StandSpec(), row_spacing=3.0, tree_spacing=1.5, crown_radius=(0.6, 1.2),
+                azimuth=azimuth, seed=5)
+    pts, truth = make_stand(s)
+    las = tmp_path / "s.las"
+    write_las(las, pts)
+    r = _run("trees", las, tmp_path / "o.gpkg", "-spacing", "auto")
+    assert r["lattice"] == "found"
+    rs, ts = map(float, r["spacing"].split("x"))
+    assert abs(rs - 3.0) <= 0.05 and abs(ts - 1.5) <= 0.05
+    assert abs((r["row_azimuth"] - azimuth + 90.0) % 180.0 - 90.0) <= 1.0
+    pos = truth["positions"]
+    true_pct = 100.0 * (pos["status"] > 0).sum() / pos["status"].size
+    lo, pct, hi = r["stocking_pct_low"], r["stocking_pct"], r["stocking_pct_high"]
+    assert lo <= pct <= hi and hi - lo <= 4.0
+    assert abs(pct - true_pct) <= 1.0 or lo <= true_pct <= hi
+    # every position of the lattice is counted once: within 3 % of the truth's
+    assert abs(r["planting_positions"] - pos["status"].size) <= 0.03 * pos["status"].size
+
+
+def test_no_lattice_is_said_in_words(tmp_path):
+    # trees at random (a natural forest): no lattice, the stocking fields empty, no NaN
+    rng = np.random.default_rng(3)
+    n = 60 * 60 * 8
+    x = 500000.0 + rng.random(n) * 60.0
+    y = 7500000.0 + rng.random(n) * 60.0
+    tx, ty = 500000.0 + rng.random(300) * 60.0, 7500000.0 + rng.random(300) * 60.0
+    d = np.hypot(x[:, None] - tx[None, :], y[:, None] - ty[None, :])
+    k = d.argmin(axis=1)
+    h = np.clip(20.0 - 8.0 * d[np.arange(n), k] ** 2, 0.0, None)
+    cls = np.where(h > 0, 1, 2).astype(np.uint8)
+    las = tmp_path / "n.las"
+    write_las(las, {"x": x, "y": y, "z": 600.0 + h, "classification": cls})
+    r = _run("trees", las, tmp_path / "o.gpkg", "-spacing", "auto")
+    assert r["lattice"].startswith("no planting lattice")
+    assert r["stocking_pct"] is None and r["stocking_pct_low"] is None
+    assert r["spacing"] is None and r["planting_positions"] == 0
+    text = subprocess.run([sys.executable, "-m", "lidartrees_gis.cli", "trees", str(las),
+                           str(tmp_path / "o2.gpkg"), "-spacing", "auto", "-q"],
+                          capture_output=True, text=True, cwd=ROOT).stdout
+    assert "nan" not in text.lower() and "no planting lattice" in text
