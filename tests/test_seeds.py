@@ -152,6 +152,10 @@ def test_a_seed_method_runs_as_its_paper_defines_it(stand_las, p):
     tops2, _, s2 = find_trees(stand_las, params=TreeParams(planting="auto", **p))
     added = len(tops2) - len(tops) - s2["suppressed_trees"] - s2["uncertain_trees"]  # no top
     assert added > 0 and f"+ {added} at empty planting positions" in s2["tops"]
+    # issue 38: each tree says which method grew its crown: the watershed's crowns grown again
+    # from the tops and the added trees are a marker-controlled watershed's (mcws)
+    assert set(tops["method"]) == {p["method"]}
+    assert set(tops2["method"]) == {"mcws" if p["method"] == "watershed" else p["method"]}
     # the default method still takes the second look
     assert TreeParams().looks_for_lattice and not TreeParams(**p).looks_for_lattice
 
@@ -209,6 +213,10 @@ def test_compare_defaults_reproduce_table_1_ordering(which, stand_las, data, tmp
     trees = {r["configuration"]: int(r["trees"]) for r in rows}
     assert len(trees) == 10 and min(trees.values()) > 50
     assert table1_ordering(trees) == []
+    # issue 38: the output says which surface, ground and cell it used
+    assert {r["res"] for r in rows} == {"0.2"}
+    assert {r["surface"] for r in rows} == {"highest point per cell minus the ground (seed 000)"}
+    assert {r["ground"] for r in rows} == {"auto (ground)"} and {r["tops"] for r in rows} == {"strict"}
     # the tallest trees survive smoothing: mean height rises from no smoothing to the coarse mask
     h = {r["configuration"]: float(r["mean_height"]) for r in rows}
     assert h["region growing, coarse Gaussian"] > h["region growing, no smoothing"]

@@ -350,9 +350,16 @@ def detect_trees(chm, spec: GridSpec, params: TreeParams | None = None, *, heigh
         labels = _grow(chm_s, rows, cols, spec.res, p)
     labels = keep_top_components(labels, rows, cols)
     table = tree_table(labels, rows, cols, chm if heights is None else heights, spec)
-    table["method"] = np.array([p.method] * len(rows), dtype=object)
+    table["method"] = np.array([crown_method(p, tops is not None)] * len(rows), dtype=object)
     return {"table": table, "labels": labels, "smoothed": chm_s, "params": p, "auto": auto,
             "tops": p.tops_finder if p.method != "watershed" else "watershed basins"}
+
+
+def crown_method(p: TreeParams, given_tops: bool) -> str:
+    """The method that really grew the crowns: ``p.method``, but ``mcws`` (a marker-controlled
+    watershed) for the watershed method's crowns grown again from given tops (plantation mode's
+    second look), since Vincent-Soille's basins are then not the crowns."""
+    return "mcws" if given_tops and p.method == "watershed" else p.method
 
 
 def _grow(chm_s, rows, cols, res: float, p: TreeParams):
