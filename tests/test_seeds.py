@@ -160,6 +160,37 @@ def test_a_seed_method_runs_as_its_paper_defines_it(stand_las, p):
     assert TreeParams().looks_for_lattice and not TreeParams(**p).looks_for_lattice
 
 
+def test_seed_methods_run_on_the_raw_surface_unless_smoothing_is_asked():
+    """Issue 38: -method treex and -method watershed work on the raw height model, as their
+    papers (seed 001, seed 000's "watershed, no smoothing"); -smooth still smooths when given;
+    the default method keeps -smooth auto. The library once smoothed them by default (a
+    Gaussian of 0.185 m on bcts_1)."""
+    from lidartrees_gis.als.trees import TreeParams, detect_trees
+    from lidartrees_gis.cli.actions import _tree_params
+    from lidartrees_gis.grid import GridSpec
+
+    assert TreeParams().smooth == "auto" and TreeParams().default_method
+    assert TreeParams(method="mcws").smooth == "auto"
+    for m in ("treex", "watershed"):
+        assert TreeParams(method=m).smooth == "none"
+        assert _tree_params({"method": m}).smooth == "none"
+        assert _tree_params({"method": m, "smooth": "auto"}).smooth == "auto"
+        assert TreeParams(method=m, smooth="gauss3").smooth == "gauss3"
+    # on a surface -smooth auto does smooth (crowns of 1.5 m at 0.1 m cells), the raw one is used
+    rng = np.random.default_rng(2)
+    yy, xx = np.mgrid[0:200, 0:200] * 0.1
+    chm = np.zeros((200, 200))
+    for cx, cy in rng.uniform(2, 18, (25, 2)):
+        chm = np.maximum(chm, 20 - 4 * ((xx - cx) ** 2 + (yy - cy) ** 2))
+    chm += rng.normal(0, 0.3, chm.shape)
+    spec = GridSpec(0, 20, 0.1, 200, 200)
+    raw = detect_trees(chm, spec, TreeParams(method="watershed", smooth="none"))
+    got = detect_trees(chm, spec, TreeParams(method="watershed"))
+    smoothed = detect_trees(chm, spec, TreeParams(method="watershed", smooth="auto"))
+    assert np.array_equal(got["labels"], raw["labels"])
+    assert len(smoothed["table"]["x"]) < len(raw["table"]["x"])
+
+
 def test_help_says_what_the_code_does():
     """-png draws height classes (not an equalised CHM), -fill fills the data's footprint only,
     -strict excludes grid-border cells, -tolerance has a lower bound when refining."""

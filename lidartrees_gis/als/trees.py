@@ -16,6 +16,9 @@ from .crowns import (keep_top_components, marker_watershed, region_growing, tree
 from .smooth import smooth as smooth_chm
 
 METHODS = ("rg", "treex", "watershed", "mcws")
+#: the methods whose papers work on the raw height model (seed 001's TreeX, seed 000's
+#: watershed without smoothing): no smoothing unless ``smooth`` is given
+RAW_METHODS = ("treex", "watershed")
 TOPS = ("auto", "aw", "lm", "strict", "treex", "vwf")
 #: -smooth auto: Gaussian sigma in crown scales (see :func:`resolve_auto`)
 SIGMA_FACTOR = 0.1
@@ -58,10 +61,12 @@ class TreeParams:
         rg = Hyyppä/Castro region growing (seed 000 Annex 2); treex = TreeX priority growing
         (seed 001); watershed = Vincent–Soille on the inverted CHM (seed 000 Annex 1); mcws =
         marker-controlled watershed from the tops.
-    smooth : str
-        ``auto`` (default): a Gaussian whose sigma is ``SIGMA_FACTOR`` crown scales (none when
-        that is under a third of a cell); or a CHM filter of
-        :func:`lidartrees_gis.als.smooth.smooth`, e.g. none, gauss3, gauss5, abefec:rhombus (seed 000).
+    smooth : str, optional
+        ``auto``: a Gaussian whose sigma is ``SIGMA_FACTOR`` crown scales (none when that is
+        under a third of a cell); or a CHM filter of :func:`lidartrees_gis.als.smooth.smooth`,
+        e.g. none, gauss3, gauss5, abefec:rhombus (seed 000). Default (None): ``auto``, but
+        ``none`` for the seed methods of :data:`RAW_METHODS` (``treex``, ``watershed``), whose
+        papers work on the raw height model.
     min_height : float
         Minimum tree height, m (2 m, seed 000).
     step : float
@@ -117,7 +122,7 @@ class TreeParams:
     """
 
     method: str = "rg"
-    smooth: str = "auto"
+    smooth: str | None = None
     min_height: float = 2.0
     step: float = 0.1
     tops: str = "auto"
@@ -139,6 +144,8 @@ class TreeParams:
     def __post_init__(self):
         if self.method not in METHODS:
             raise InputError(f"-method: unknown method {self.method!r}; use {', '.join(METHODS)}")
+        if self.smooth in (None, ""):  # the seed methods work on the raw surface
+            object.__setattr__(self, "smooth", "none" if self.method in RAW_METHODS else "auto")
         if self.tops not in TOPS:
             raise InputError(f"-tops: unknown tree-top finder {self.tops!r}; use {', '.join(TOPS)}")
         if not np.isfinite(self.min_height):

@@ -197,7 +197,8 @@ COMMANDS = {
                "(measured on the CHM, or from -spacing); none; gauss3 (Castro's fine mask); "
                "gauss5 (coarse mask); gauss:SIGMA (m); or OP:ELEMENT[:SIZE], OP in erode, "
                "dilate, open, close, abefec, fecabe, fecabefec, abefecabe; ELEMENT cross, "
-               "square, rhombus", flag="-smooth", default="auto"),
+               "square, rhombus. Default: auto, but none with -method treex or watershed "
+               "(their papers work on the raw height model)", flag="-smooth", default=None),
          Param("min_height", "float", "Minimum tree height", flag="-min_height", default=2.0,
                unit="m"),
          Param("spacing", "str", "Plantation mode: planting spacing ROWSxTREES in m, e.g. 3x2, "
