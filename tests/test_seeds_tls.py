@@ -121,7 +121,8 @@ def branches_begin(x, y, z, reach=0.5, share=0.1, step=0.25):
             d = np.hypot(x[m] - np.median(x[m]), y[m] - np.median(y[m]))
             wide[i] = np.mean(d > reach) > share
     run = int(round(1 / step))
-    return next(h for i, h in enumerate(hs) if h >= 1.0 and wide[i] and wide[i:i + run].sum() * 2 >= run)
+    return next(h for i, h in enumerate(hs)
+                if h >= 1.0 and wide[i] and wide[i:i + run].sum() * 2 >= run)
 
 
 #: every single TLS tree in ../shared/data (pine_plot.laz is a plot, dbh.laz one slice)

@@ -353,7 +353,8 @@ def _clusters(results: list, seed: int, footprint, res: float) -> dict:
     agree = consensus_distances([res_[4] for res_ in results], complete, footprint)
     members = np.nonzero(labels == good)[0]
     limit = agreement_limit(agree[members])
-    role = [("incomplete" if not complete[k] else roles[int(labels[k])]) for k in range(len(results))]
+    role = [("incomplete" if not complete[k] else roles[int(labels[k])])
+            for k in range(len(results))]
     for k in members:
         if not agree[k] <= limit:
             role[k] = "outlier"
