@@ -381,3 +381,26 @@ def test_dtm_quality_good_is_trusted_without_a_reference(data, tmp_path):
     ranks = sorted(int(r["rank"]) for r in rows if r["rank"])
     assert ranks == list(range(1, len(ranks) + 1))
     assert max(int(r["rank"]) for r in good) < min(int(r["rank"]) for r in outliers)
+
+
+def test_seeds_page_is_the_benchmarks_results(tmp_path):
+    """docs/SEEDS.md holds the benchmark's figures, not typed ones: written again from
+    benchmarks/results/seeds.json it is the same page, and it states the issue 38 acceptance
+    lines it can decide (bcts_1's good DTMs, the profiles, TreeX's spread against +7 %)."""
+    import json
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    sys.path.insert(0, str(root / "benchmarks"))
+    from seeds_doc import write_doc
+
+    res = json.loads((root / "benchmarks" / "results" / "seeds.json").read_text())
+    write_doc(res, tmp_path / "SEEDS.md")
+    page = (root / "docs" / "SEEDS.md").read_text(encoding="utf-8")
+    assert (tmp_path / "SEEDS.md").read_text(encoding="utf-8") == page
+    o = res["treex_offsets"]
+    assert f"**{o['count_error_pct_mean']:+.1f} % ± {o['count_error_pct_sd']:.1f} %**" in page
+    assert o["layouts"] == 36 and "+7 %" in page
+    assert res["leite_dtm_quality"]["bcts_1"]["good_worst_over_recommended"] <= 2
+    assert max(r["spread_off_m"] for r in res["queiroz_profile"].values()) <= 1.5
