@@ -49,9 +49,9 @@ def _treex(res) -> list:
            "6 m²), moved by the side of the square whose area is the crown-area standard deviation "
            "(`-sd_crown_area`, 2 m²); the highest cell of each window position at or above the "
            "minimum tree height is a top, as the paper writes (its Figure 1, the mask, is not in "
-           "the text: the paper gives the window's area, not its sides). The windows start at "
-           "multiples of the step on the global grid of cells, so a tile and the whole area see "
-           "the same windows. `-method treex` and `-method watershed` run on the raw height model, "
+           "the text: the paper gives the window's area, not its sides). The windows start at the "
+           "first cell of the area's height model, as the paper moves its window over the image, "
+           "and every tile of an area sees the same windows. `-method treex` and `-method watershed` run on the raw height model, "
            "as their papers; `-smooth` smooths it when asked.", "",
            "| stand | truth | configuration | trees | count error | F-score |",
            "|---|---|---|---|---|---|"]

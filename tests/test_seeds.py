@@ -122,6 +122,42 @@ def test_treex_tops_are_the_window_maxima_as_written(res, area, sd):
     assert sorted(lab[rr, cc] for rr, cc in got) == list(range(1, n + 1))  # one per group
 
 
+@pytest.mark.parametrize("left, top", [(1000.25, 2000.75), (1000.0, 2003.0), (1000.5, 2001.25)])
+def test_treex_windows_start_at_the_first_cell_of_the_height_model(tmp_path, left, top):
+    """Issue 38: `trees CHM.tif -method treex` moves its windows from the image's first pixel,
+    as seed 001 moves its window over the height model: the tops are the window maxima of
+    :func:`treex_windows` (one per group of touching maxima), whatever the raster's position.
+    The library once started them at multiples of the step on the global grid, a layout that
+    shifts with the data's coordinates (the count swings by tens of percent with it)."""
+    from rasterio.transform import from_origin
+
+    from lidartrees_gis.api import find_trees
+    from lidartrees_gis.als.trees import TreeParams
+
+    res = 0.25
+    rng = np.random.default_rng(9)
+    yy, xx = (np.mgrid[0:120, 0:110] + 0.5) * res
+    chm = np.zeros((120, 110))
+    for cx, cy in rng.uniform(1, 27, (45, 2)):
+        chm = np.maximum(chm, rng.uniform(15, 24) - 3.5 * ((xx - cx) ** 2 + (yy - cy) ** 2))
+    f = tmp_path / "chm.tif"
+    with rasterio.open(f, "w", driver="GTiff", width=110, height=120, count=1, dtype="float64",
+                       crs="EPSG:31984", transform=from_origin(left, top, res, res)) as ds:
+        ds.write(chm, 1)
+    tops, _, _ = find_trees(f, params=TreeParams(method="treex"))
+    want = treex_windows(chm, max(1, round(np.sqrt(6.0) / res)), max(1, round(np.sqrt(2.0) / res)),
+                         2.0)
+    rows = np.floor((top - tops["y"].to_numpy()) / res).astype(int)
+    cols = np.floor((tops["x"].to_numpy() - left) / res).astype(int)
+    got = set(zip(rows.tolist(), cols.tolist()))
+    mask = np.zeros(chm.shape, bool)
+    for rr, cc in want:
+        mask[rr, cc] = True
+    lab, n = ndimage.label(mask, structure=np.ones((3, 3)))
+    assert n > 30 and got <= want
+    assert sorted(lab[rr, cc] for rr, cc in got) == list(range(1, n + 1))
+
+
 @pytest.fixture(scope="module")
 def stand_las(tmp_path_factory, stand):
     from pyproj import CRS

@@ -112,6 +112,10 @@ class TreeParams:
         Region growing's ``altura_max`` (seed 000 Annex 2): the thresholds are ``top_height -
         k step``. Default the highest value of the smoothed CHM (as Annex 2); the tiles of an
         area take the area's (measured once by the plan).
+    window_corner : (float, float), optional
+        TreeX: the (x, y) corner where the search windows start, the upper-left corner of the
+        area's grid (the image's first pixel, as seed 001 moves its window over the height
+        model), set by the chains for every tile of an area; default the global grid's cell 0.
     planting : {"auto", "none"}, optional
         Without ``spacing``: ``auto`` looks for a planting lattice under the tops
         (:func:`lidartrees_gis.als.stocking.detect_planting`) and, when there is one, looks again
@@ -140,6 +144,7 @@ class TreeParams:
     min_separation: float | None = None
     top_height: float | None = None
     planting: str | None = None
+    window_corner: tuple | None = None
 
     def __post_init__(self):
         if self.method not in METHODS:
@@ -274,6 +279,25 @@ def _global_origin(spec) -> tuple:
     return (-int(bottom) - spec.height, int(col))
 
 
+def window_origin(spec, p: TreeParams) -> tuple:
+    """(row, column) of the grid's upper-left cell counted from where TreeX's windows start:
+    :attr:`TreeParams.window_corner`, else the global grid's cell 0."""
+    if p.window_corner is None:
+        return _global_origin(spec)
+    x0, y0 = p.window_corner
+    return (int(round((y0 - spec.top) / spec.res)), int(round((spec.left - x0) / spec.res)))
+
+
+def area_window_corner(area, res: float) -> tuple:
+    """The upper-left corner (x, y) of an area's grid: a CHM raster's own, else the grid
+    aligned to multiples of ``res`` that holds the area's extent (the CHM ``chm`` writes);
+    TreeX's windows start there (:attr:`TreeParams.window_corner`)."""
+    spec = getattr(area, "spec", None)
+    if spec is None:
+        spec = GridSpec.from_bounds(*area.extent, res)
+    return (float(spec.left), float(spec.top))
+
+
 def _watershed_tops(labels, chm_s, min_height):
     """Basins of the Vincent–Soille watershed to (labels 1..n, top rows, top cols): the top of a
     basin is its highest cell (first in row order on ties); basins lower than ``min_height`` and
@@ -349,7 +373,7 @@ def detect_trees(chm, spec: GridSpec, params: TreeParams | None = None, *, heigh
             if hs.shape != chm.shape:
                 raise InputError(f"heights: shape {hs.shape} differs from the CHM's {chm.shape}")
             surface = smooth_chm(hs, smooth, res=spec.res)
-        rows, cols = find_tops(surface, spec.res, p, auto, origin=_global_origin(spec))
+        rows, cols = find_tops(surface, spec.res, p, auto, origin=window_origin(spec, p))
         if surface is not chm_s:
             # a single return over low vegetation is no tree: the crown must reach min_height
             ok = np.nan_to_num(chm_s[rows, cols], nan=-np.inf) >= p.min_height
