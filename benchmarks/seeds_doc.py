@@ -78,8 +78,9 @@ def _treex(res) -> list:
                 f"standard deviation; range {lo:+.1f} % to {hi:+.1f} %); the layout a run uses "
                 f"gives {o['count_error_pct_as_run']:+.1f} %. Along the diagonal (0, 0) ... (5, 5): "
                 + ", ".join(f"{v:+.1f} %" for v in o["diagonal_0_5_pct"]) + ". "
-                + (f"The paper's +{paper:g} % lies within that range: the paper's figure is one "
-                   "layout's, and a single TreeX count is uncertain by the spread above."
+                + (f"The paper's +{paper:g} % lies within that range: a single count by this "
+                   "rule depends on where its windows fall by the spread above, so the paper's "
+                   "figure and a run's are each one draw of it; compare means, not single counts."
                    if within else
                    f"The paper's +{paper:g} % lies outside that range: on this stand TreeX's rule "
                    "counts differently from the paper's plots whatever the layout."), ""]
