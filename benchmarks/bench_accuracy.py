@@ -14,6 +14,7 @@ Datasets
   its rows turned 0, 20 and 45° from the grid axes (4 and 25 pts/m²; at 4 also with -tr 0.4).
 
 Usage: python benchmarks/bench_accuracy.py [--out benchmarks/results/accuracy.json] [--quick]
+[--configs "NAME,..."] (only those configurations again, the others kept from --out)
 """
 from __future__ import annotations
 
@@ -247,10 +248,19 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "accuracy.json"))
     ap.add_argument("--quick", action="store_true", help="defaults only, no bcts")
+    ap.add_argument("--configs", default="", help="comma list of configurations to run again; "
+                    "the others are kept from --out")
     a = ap.parse_args()
     res = {"targets": {k: list(v) if isinstance(v, tuple) else v for k, v in TARGETS.items()},
            "lidR_reported": LIDR, "configurations": {}}
     names = ["defaults"] if a.quick else list(CONFIGS)
+    if a.configs:
+        names = [n for n in a.configs.split(",") if n]
+        unknown = [n for n in names if n not in CONFIGS]
+        if unknown:
+            raise SystemExit(f"--configs: unknown {unknown}; known: {list(CONFIGS)}")
+        old = json.loads(Path(a.out).read_text())["configurations"]
+        res["configurations"] = {k: old[k] for k in CONFIGS if k in old}
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
         for name in names:

@@ -122,6 +122,42 @@ def test_treex_tops_are_the_window_maxima_as_written(res, area, sd):
     assert sorted(lab[rr, cc] for rr, cc in got) == list(range(1, n + 1))  # one per group
 
 
+@pytest.mark.parametrize("left, top", [(1000.25, 2000.75), (1000.0, 2003.0), (1000.5, 2001.25)])
+def test_treex_windows_start_at_the_first_cell_of_the_height_model(tmp_path, left, top):
+    """Issue 38: `trees CHM.tif -method treex` moves its windows from the image's first pixel,
+    as seed 001 moves its window over the height model: the tops are the window maxima of
+    :func:`treex_windows` (one per group of touching maxima), whatever the raster's position.
+    The library once started them at multiples of the step on the global grid, a layout that
+    shifts with the data's coordinates (the count swings by tens of percent with it)."""
+    from rasterio.transform import from_origin
+
+    from lidartrees_gis.api import find_trees
+    from lidartrees_gis.als.trees import TreeParams
+
+    res = 0.25
+    rng = np.random.default_rng(9)
+    yy, xx = (np.mgrid[0:120, 0:110] + 0.5) * res
+    chm = np.zeros((120, 110))
+    for cx, cy in rng.uniform(1, 27, (45, 2)):
+        chm = np.maximum(chm, rng.uniform(15, 24) - 3.5 * ((xx - cx) ** 2 + (yy - cy) ** 2))
+    f = tmp_path / "chm.tif"
+    with rasterio.open(f, "w", driver="GTiff", width=110, height=120, count=1, dtype="float64",
+                       crs="EPSG:31984", transform=from_origin(left, top, res, res)) as ds:
+        ds.write(chm, 1)
+    tops, _, _ = find_trees(f, params=TreeParams(method="treex"))
+    want = treex_windows(chm, max(1, round(np.sqrt(6.0) / res)), max(1, round(np.sqrt(2.0) / res)),
+                         2.0)
+    rows = np.floor((top - tops["y"].to_numpy()) / res).astype(int)
+    cols = np.floor((tops["x"].to_numpy() - left) / res).astype(int)
+    got = set(zip(rows.tolist(), cols.tolist()))
+    mask = np.zeros(chm.shape, bool)
+    for rr, cc in want:
+        mask[rr, cc] = True
+    lab, n = ndimage.label(mask, structure=np.ones((3, 3)))
+    assert n > 30 and got <= want
+    assert sorted(lab[rr, cc] for rr, cc in got) == list(range(1, n + 1))
+
+
 @pytest.fixture(scope="module")
 def stand_las(tmp_path_factory, stand):
     from pyproj import CRS
@@ -152,8 +188,43 @@ def test_a_seed_method_runs_as_its_paper_defines_it(stand_las, p):
     tops2, _, s2 = find_trees(stand_las, params=TreeParams(planting="auto", **p))
     added = len(tops2) - len(tops) - s2["suppressed_trees"] - s2["uncertain_trees"]  # no top
     assert added > 0 and f"+ {added} at empty planting positions" in s2["tops"]
+    # issue 38: each tree says which method grew its crown: the watershed's crowns grown again
+    # from the tops and the added trees are a marker-controlled watershed's (mcws)
+    assert set(tops["method"]) == {p["method"]}
+    assert set(tops2["method"]) == {"mcws" if p["method"] == "watershed" else p["method"]}
     # the default method still takes the second look
     assert TreeParams().looks_for_lattice and not TreeParams(**p).looks_for_lattice
+
+
+def test_seed_methods_run_on_the_raw_surface_unless_smoothing_is_asked():
+    """Issue 38: -method treex and -method watershed work on the raw height model, as their
+    papers (seed 001, seed 000's "watershed, no smoothing"); -smooth still smooths when given;
+    the default method keeps -smooth auto. The library once smoothed them by default (a
+    Gaussian of 0.185 m on bcts_1)."""
+    from lidartrees_gis.als.trees import TreeParams, detect_trees
+    from lidartrees_gis.cli.actions import _tree_params
+    from lidartrees_gis.grid import GridSpec
+
+    assert TreeParams().smooth == "auto" and TreeParams().default_method
+    assert TreeParams(method="mcws").smooth == "auto"
+    for m in ("treex", "watershed"):
+        assert TreeParams(method=m).smooth == "none"
+        assert _tree_params({"method": m}).smooth == "none"
+        assert _tree_params({"method": m, "smooth": "auto"}).smooth == "auto"
+        assert TreeParams(method=m, smooth="gauss3").smooth == "gauss3"
+    # on a surface -smooth auto does smooth (crowns of 1.5 m at 0.1 m cells), the raw one is used
+    rng = np.random.default_rng(2)
+    yy, xx = np.mgrid[0:200, 0:200] * 0.1
+    chm = np.zeros((200, 200))
+    for cx, cy in rng.uniform(2, 18, (25, 2)):
+        chm = np.maximum(chm, 20 - 4 * ((xx - cx) ** 2 + (yy - cy) ** 2))
+    chm += rng.normal(0, 0.3, chm.shape)
+    spec = GridSpec(0, 20, 0.1, 200, 200)
+    raw = detect_trees(chm, spec, TreeParams(method="watershed", smooth="none"))
+    got = detect_trees(chm, spec, TreeParams(method="watershed"))
+    smoothed = detect_trees(chm, spec, TreeParams(method="watershed", smooth="auto"))
+    assert np.array_equal(got["labels"], raw["labels"])
+    assert len(smoothed["table"]["x"]) < len(raw["table"]["x"])
 
 
 def test_help_says_what_the_code_does():
@@ -209,6 +280,11 @@ def test_compare_defaults_reproduce_table_1_ordering(which, stand_las, data, tmp
     trees = {r["configuration"]: int(r["trees"]) for r in rows}
     assert len(trees) == 10 and min(trees.values()) > 50
     assert table1_ordering(trees) == []
+    # issue 38: the output says which surface, ground and cell it used
+    assert {r["res"] for r in rows} == {"0.2"}
+    assert {r["surface"] for r in rows} == {"highest point per cell minus the ground (seed 000)"}
+    assert {r["ground"] for r in rows} == {"auto (ground)"}
+    assert {r["tops"] for r in rows} == {"strict"}
     # the tallest trees survive smoothing: mean height rises from no smoothing to the coarse mask
     h = {r["configuration"]: float(r["mean_height"]) for r in rows}
     assert h["region growing, coarse Gaussian"] > h["region growing, no smoothing"]
@@ -273,3 +349,94 @@ def test_dtm_quality_on_a_vendor_classified_file(data, tmp_path):
     rm = {(float(r["g"]), float(r["w"])): float(r["ref_rmse"]) for r in rows}
     assert recommended(out) in sorted(rm, key=rm.get)[:3]
     assert len(rows) >= 6 and max(rm.values()) > 2 * min(rm.values())
+
+
+def test_dtm_quality_completeness_needs_a_ground_point_per_10_m2():
+    """Issue 38: a DTM of 8 ground points over 2.8 ha covers the data (a TIN spans its hull)
+    but is incomplete; 3,000 points are enough; the reason is one line."""
+    from lidartrees_gis.ground.consensus import completeness
+
+    ok, dens, why = completeness([8, 2_000, 3_000, 3_000, 2], [1.0, 1.0, 1.0, 0.5, 1.0], 27_657.0)
+    assert ok.tolist() == [False, False, True, False, False]
+    assert dens[0] == pytest.approx(8 / 27_657.0)
+    assert "per m²" in why[0] and "1 per 10 m²" in why[0] and why[2] == ""
+    assert "covers 50 %" in why[3] and why[4] == "2 ground points"
+
+
+def test_dtm_quality_outlier_of_the_good_cluster_is_not_good():
+    """The consensus distance: a DTM 1 m off the others is far from their per-cell median,
+    the others at 0 m; the limit holds the bulk of a cluster and leaves the far one out."""
+    from lidartrees_gis.ground.consensus import agreement_limit, consensus_distances
+
+    rng = np.random.default_rng(0)
+    ground = rng.normal(0, 0.02, (40, 50))
+    dtms = [ground + rng.normal(0, 0.01, ground.shape) for _ in range(6)] + [ground + 1.0]
+    fp = np.ones(ground.shape, bool)
+    d = consensus_distances(dtms, np.ones(7, bool), fp)
+    assert d[:6].max() < 0.05 and d[6] == pytest.approx(1.0, abs=0.05)
+    lim = agreement_limit(d)
+    assert d[:6].max() < lim < d[6]
+    assert agreement_limit([0.45, 0.45, 0.46, 1.0, 2.0]) == pytest.approx(0.45 + 0.25, abs=0.02)
+
+
+@pytest.mark.realdata
+def test_dtm_quality_good_is_trusted_without_a_reference(data, tmp_path):
+    """Issue 38, bcts_1 (a 120 m crop, for time) with the paper's sweep: no DTM labelled good is
+    more than 2x the recommended one's distance to the vendor's ground (class 2), none built
+    from fewer than 1 ground point per 10 m²; the ranked list starts with a good DTM and says
+    why. The library once put two smooth DTMs 2.4-2.7 m from the ground in "good" (0.25 m
+    for the recommended one)."""
+    import laspy
+
+    from lidartrees_gis.cli import main
+
+    las = laspy.read(data("lasR_bcts/bcts_1.laz"))
+    x, y = np.asarray(las.x), np.asarray(las.y)
+    keep = (x < x.min() + 120) & (y < y.min() + 120)
+    crop = laspy.LasData(las.header)
+    crop.points = las.points[keep]
+    f = tmp_path / "crop.laz"
+    crop.write(str(f))
+    out = tmp_path / "q"
+    assert main(["dtm-quality", str(f), str(out), "-q"]) == 0
+    rows = _quality_rows(out)
+    assert len(rows) == 77
+    rm = {(float(r["g"]), float(r["w"])): float(r["ref_rmse"]) for r in rows if r["ref_rmse"]}
+    best = rm[recommended(out)]
+    good = [r for r in rows if r["role"] == "good"]
+    assert len(good) >= 5
+    assert max(float(r["ref_rmse"]) for r in good) <= 2 * best
+    assert all(float(r["ground_density"]) >= 0.1 for r in good)
+    sparse = [r for r in rows if int(r["ground_points"]) < 0.1 * 120 * 120]
+    assert sparse and all(r["role"] == "incomplete" for r in sparse)
+    outliers = [r for r in rows if r["role"] == "outlier"]
+    assert outliers and all(float(r["ref_rmse"]) > 2 * best for r in outliers)
+    assert all(r["why"].startswith("outlier: ") for r in outliers)
+    first = next(r for r in rows if r["rank"] == "1")
+    assert first["role"] == "good" and first["why"].startswith("good: ")
+    ranks = sorted(int(r["rank"]) for r in rows if r["rank"])
+    assert ranks == list(range(1, len(ranks) + 1))
+    assert max(int(r["rank"]) for r in good) < min(int(r["rank"]) for r in outliers)
+
+
+def test_seeds_page_is_the_benchmarks_results(tmp_path):
+    """docs/SEEDS.md holds the benchmark's figures, not typed ones: written again from
+    benchmarks/results/seeds.json it is the same page, and it states the issue 38 acceptance
+    lines it can decide (bcts_1's good DTMs, the profiles, TreeX's spread against +7 %)."""
+    import json
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    sys.path.insert(0, str(root / "benchmarks"))
+    from seeds_doc import write_doc
+
+    res = json.loads((root / "benchmarks" / "results" / "seeds.json").read_text())
+    write_doc(res, tmp_path / "SEEDS.md")
+    page = (root / "docs" / "SEEDS.md").read_text(encoding="utf-8")
+    assert (tmp_path / "SEEDS.md").read_text(encoding="utf-8") == page
+    o = res["treex_offsets"]
+    assert f"**{o['count_error_pct_mean']:+.1f} % ± {o['count_error_pct_sd']:.1f} %**" in page
+    assert o["layouts"] == 36 and "+7 %" in page
+    assert res["leite_dtm_quality"]["bcts_1"]["good_worst_over_recommended"] <= 2
+    assert max(r["spread_off_m"] for r in res["queiroz_profile"].values()) <= 1.5

@@ -35,7 +35,7 @@ from .sinks import GpkgTreeLayers, QuickLook, Tally, TreeLayers, TreesSummary, T
 from .surfaces import SurfaceOptions, box_surfaces
 from .stands import StandsTally, write_stand_csv
 from .tile import tile_first_tops, tile_trees, warn_sparse_plantation
-from .trees import TreeParams, auto_smoothing
+from .trees import TreeParams, area_window_corner, auto_smoothing
 
 
 def open_area(input, read: ReadOptions | None = None):
@@ -226,6 +226,8 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
                                 progress=SubProgress(prog, 0.02, 0.45))
         p = replace(p, crown_scale=plan.crown_scale, dominant_height=plan.dominant_height,
                     top_height=plan.top_height)
+        if p.tops_finder == "treex":  # the windows start at the area's first cell (seed 001)
+            p = replace(p, window_corner=area_window_corner(area, plan.res))
         if p.spacing is not None and isinstance(area, Catalog):
             warn_sparse_plantation(_density(area, plan, ready, runner))
         summary = TreesSummary()

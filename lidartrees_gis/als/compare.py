@@ -74,14 +74,36 @@ def compare_run(input, output, *, surface: SurfaceOptions | None = None,
                                   progress=SubProgress(prog, 0, 0.3))
     rows = compare_rows(s["chm"], s["spec"], s["heights"], min_height=min_height, step=step,
                         strict=strict, progress=SubProgress(prog, 0.3, 1.0))
+    prov = provenance(s, surface, plan.res, strict)
     with atomic_output(output, overwrite) as tmp:
         with open(tmp, "w", encoding="utf-8") as fh:
-            fh.write("configuration,method,smooth,trees,mean_height,mean_crown_diameter\n")
+            fh.write("configuration,method,smooth,trees,mean_height,mean_crown_diameter,"
+                     "surface,ground,res,tops\n")
+            tail = f"\"{prov['surface']}\",\"{prov['ground']}\",{prov['res']:g},{prov['tops']}"
             for r in rows:
                 fh.write(f"\"{r['configuration']}\",{r['method']},{r['smooth']},{r['trees']},"
-                         f"{r['mean_height']:.2f},{r['mean_crown_diameter']:.2f}\n")
+                         f"{r['mean_height']:.2f},{r['mean_crown_diameter']:.2f},{tail}\n")
     md = ["| method | trees | mean height (m) | mean diameter (m) |", "|---|---|---|---|"]
     md += [f"| {r['configuration']} | {r['trees']} | {r['mean_height']:.2f} | "
            f"{r['mean_crown_diameter']:.2f} |" for r in rows]
+    md.append(f"\nSurface: {prov['surface']}; ground: {prov['ground']}; cell {prov['res']:g} m; "
+              f"tops: {prov['tops']}.")
     return {"output": str(output), "rows": rows, "table": "\n".join(md), "res": plan.res,
+            **{k: prov[k] for k in ("surface", "ground", "tops")},
             "reprojection": repro_report(area)}
+
+
+#: the surfaces ``compare`` can run on, as its output names them
+SURFACE_NAMES = {"max": "highest point per cell minus the ground (seed 000)",
+                 "pitfree": "pit-free CHM (Khosravipour et al. 2014)",
+                 "tin": "TIN of the first returns minus the ground"}
+
+
+def provenance(s: dict, surface: SurfaceOptions, res: float, strict: bool) -> dict:
+    """Which surface, ground and cell a ``compare`` run used (a CHM GeoTIFF is its own
+    surface: its ground is whatever made it)."""
+    if not s.get("dtm_method"):  # a CHM raster
+        return {"surface": "the input CHM raster", "ground": "that of the input CHM",
+                "res": float(res), "tops": "strict" if strict else "lm"}
+    return {"surface": SURFACE_NAMES.get(s.get("chm_method", surface.chm), surface.chm),
+            "ground": s["dtm_method"], "res": float(res), "tops": "strict" if strict else "lm"}

@@ -143,6 +143,8 @@ def tree_arrays(r: dict) -> dict:
     rows = {c: np.asarray(r[c])[order] for c in TREE_FIELDS}
     for g in ("wkb", "top_wkb"):
         rows[g] = np.asarray(list(r[g]), dtype=object)[order]
+    if r.get("crown_method"):  # the method that grew the tile's crowns
+        rows["method"] = np.full(order.size, r["crown_method"], dtype=object)
     return rows
 
 
@@ -224,7 +226,9 @@ class TreeLayers:
         stand = data.pop("stand")
         if self.stand_ids is not None:
             data["stand_id"] = stand_names(stand, self.stand_ids)
-        data["method"] = np.full(len(data["tree_id"]), self.method, dtype=object)
+        data["method"] = np.concatenate(
+            [p["method"] if "method" in p else np.full(len(p["tree_id"]), self.method, dtype=object)
+             for p in parts]) if parts else np.empty(0, dtype=object)
         data["small_crown"] = (small_crowns(data["crown_area"], data["n_cells"])
                                & (data["suppressed"] == 0)).astype(np.int32)
         return data

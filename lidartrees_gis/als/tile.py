@@ -245,6 +245,8 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
     t["suppressed"] = np.zeros(len(t["x"]), np.int64)
     out = {c: np.asarray(t[c])[idx] for c in TREE_FIELDS}
     out["gap_trees"] = _core_gap_trees(r, t, idx)
+    # the method that grew this tile's crowns (mcws for watershed crowns grown again)
+    out["crown_method"] = str(t["method"][0]) if len(t["method"]) else params.method
     under = _suppressed_trees(st if st is not None else r.get("understorey"), tile, spec.res,
                               stands)
     out["planting"] = r.get("planting_detected")

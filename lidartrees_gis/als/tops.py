@@ -114,9 +114,11 @@ def treex_maxima(chm, res: float, *, mean_crown_area: float, sd_crown_area: floa
     to a taller neighbour in its row); ``centred=True`` keeps it only when it is the highest of
     the same-size window centred on it (drops one of two close trees).
 
-    ``origin``: the (row, column) of the grid's upper-left cell in a global grid of cells; the
-    window positions are those of the global grid (a multiple of the step from its cell 0), so
-    that a tile and the whole area see the same windows.
+    ``origin``: the (row, column) of the grid's upper-left cell counted from the cell where the
+    windows start (the area's first cell in a run, as seed 001 moves its window over the image:
+    :attr:`lidartrees_gis.als.trees.TreeParams.window_corner`; else the global grid's cell 0);
+    the window positions are multiples of the step from there, so that a tile and the whole
+    area see the same windows.
     """
     if not (mean_crown_area > 0 and sd_crown_area > 0):
         raise InputError("-mean_crown_area and -sd_crown_area must be > 0 (m²)")

@@ -16,6 +16,9 @@ from .crowns import (keep_top_components, marker_watershed, region_growing, tree
 from .smooth import smooth as smooth_chm
 
 METHODS = ("rg", "treex", "watershed", "mcws")
+#: the methods whose papers work on the raw height model (seed 001's TreeX, seed 000's
+#: watershed without smoothing): no smoothing unless ``smooth`` is given
+RAW_METHODS = ("treex", "watershed")
 TOPS = ("auto", "aw", "lm", "strict", "treex", "vwf")
 #: -smooth auto: Gaussian sigma in crown scales (see :func:`resolve_auto`)
 SIGMA_FACTOR = 0.1
@@ -58,10 +61,12 @@ class TreeParams:
         rg = Hyyppä/Castro region growing (seed 000 Annex 2); treex = TreeX priority growing
         (seed 001); watershed = Vincent–Soille on the inverted CHM (seed 000 Annex 1); mcws =
         marker-controlled watershed from the tops.
-    smooth : str
-        ``auto`` (default): a Gaussian whose sigma is ``SIGMA_FACTOR`` crown scales (none when
-        that is under a third of a cell); or a CHM filter of
-        :func:`lidartrees_gis.als.smooth.smooth`, e.g. none, gauss3, gauss5, abefec:rhombus (seed 000).
+    smooth : str, optional
+        ``auto``: a Gaussian whose sigma is ``SIGMA_FACTOR`` crown scales (none when that is
+        under a third of a cell); or a CHM filter of :func:`lidartrees_gis.als.smooth.smooth`,
+        e.g. none, gauss3, gauss5, abefec:rhombus (seed 000). Default (None): ``auto``, but
+        ``none`` for the seed methods of :data:`RAW_METHODS` (``treex``, ``watershed``), whose
+        papers work on the raw height model.
     min_height : float
         Minimum tree height, m (2 m, seed 000).
     step : float
@@ -107,6 +112,10 @@ class TreeParams:
         Region growing's ``altura_max`` (seed 000 Annex 2): the thresholds are ``top_height -
         k step``. Default the highest value of the smoothed CHM (as Annex 2); the tiles of an
         area take the area's (measured once by the plan).
+    window_corner : (float, float), optional
+        TreeX: the (x, y) corner where the search windows start, the upper-left corner of the
+        area's grid (the image's first pixel, as seed 001 moves its window over the height
+        model), set by the chains for every tile of an area; default the global grid's cell 0.
     planting : {"auto", "none"}, optional
         Without ``spacing``: ``auto`` looks for a planting lattice under the tops
         (:func:`lidartrees_gis.als.stocking.detect_planting`) and, when there is one, looks again
@@ -117,7 +126,7 @@ class TreeParams:
     """
 
     method: str = "rg"
-    smooth: str = "auto"
+    smooth: str | None = None
     min_height: float = 2.0
     step: float = 0.1
     tops: str = "auto"
@@ -135,10 +144,13 @@ class TreeParams:
     min_separation: float | None = None
     top_height: float | None = None
     planting: str | None = None
+    window_corner: tuple | None = None
 
     def __post_init__(self):
         if self.method not in METHODS:
             raise InputError(f"-method: unknown method {self.method!r}; use {', '.join(METHODS)}")
+        if self.smooth in (None, ""):  # the seed methods work on the raw surface
+            object.__setattr__(self, "smooth", "none" if self.method in RAW_METHODS else "auto")
         if self.tops not in TOPS:
             raise InputError(f"-tops: unknown tree-top finder {self.tops!r}; use {', '.join(TOPS)}")
         if not np.isfinite(self.min_height):
@@ -267,6 +279,25 @@ def _global_origin(spec) -> tuple:
     return (-int(bottom) - spec.height, int(col))
 
 
+def window_origin(spec, p: TreeParams) -> tuple:
+    """(row, column) of the grid's upper-left cell counted from where TreeX's windows start:
+    :attr:`TreeParams.window_corner`, else the global grid's cell 0."""
+    if p.window_corner is None:
+        return _global_origin(spec)
+    x0, y0 = p.window_corner
+    return (int(round((y0 - spec.top) / spec.res)), int(round((spec.left - x0) / spec.res)))
+
+
+def area_window_corner(area, res: float) -> tuple:
+    """The upper-left corner (x, y) of an area's grid: a CHM raster's own, else the grid
+    aligned to multiples of ``res`` that holds the area's extent (the CHM ``chm`` writes);
+    TreeX's windows start there (:attr:`TreeParams.window_corner`)."""
+    spec = getattr(area, "spec", None)
+    if spec is None:
+        spec = GridSpec.from_bounds(*area.extent, res)
+    return (float(spec.left), float(spec.top))
+
+
 def _watershed_tops(labels, chm_s, min_height):
     """Basins of the Vincent–Soille watershed to (labels 1..n, top rows, top cols): the top of a
     basin is its highest cell (first in row order on ties); basins lower than ``min_height`` and
@@ -342,7 +373,7 @@ def detect_trees(chm, spec: GridSpec, params: TreeParams | None = None, *, heigh
             if hs.shape != chm.shape:
                 raise InputError(f"heights: shape {hs.shape} differs from the CHM's {chm.shape}")
             surface = smooth_chm(hs, smooth, res=spec.res)
-        rows, cols = find_tops(surface, spec.res, p, auto, origin=_global_origin(spec))
+        rows, cols = find_tops(surface, spec.res, p, auto, origin=window_origin(spec, p))
         if surface is not chm_s:
             # a single return over low vegetation is no tree: the crown must reach min_height
             ok = np.nan_to_num(chm_s[rows, cols], nan=-np.inf) >= p.min_height
@@ -350,9 +381,16 @@ def detect_trees(chm, spec: GridSpec, params: TreeParams | None = None, *, heigh
         labels = _grow(chm_s, rows, cols, spec.res, p)
     labels = keep_top_components(labels, rows, cols)
     table = tree_table(labels, rows, cols, chm if heights is None else heights, spec)
-    table["method"] = np.array([p.method] * len(rows), dtype=object)
+    table["method"] = np.array([crown_method(p, tops is not None)] * len(rows), dtype=object)
     return {"table": table, "labels": labels, "smoothed": chm_s, "params": p, "auto": auto,
             "tops": p.tops_finder if p.method != "watershed" else "watershed basins"}
+
+
+def crown_method(p: TreeParams, given_tops: bool) -> str:
+    """The method that really grew the crowns: ``p.method``, but ``mcws`` (a marker-controlled
+    watershed) for the watershed method's crowns grown again from given tops (plantation mode's
+    second look), since Vincent-Soille's basins are then not the crowns."""
+    return "mcws" if given_tops and p.method == "watershed" else p.method
 
 
 def _grow(chm_s, rows, cols, res: float, p: TreeParams):

@@ -197,7 +197,8 @@ COMMANDS = {
                "(measured on the CHM, or from -spacing); none; gauss3 (Castro's fine mask); "
                "gauss5 (coarse mask); gauss:SIGMA (m); or OP:ELEMENT[:SIZE], OP in erode, "
                "dilate, open, close, abefec, fecabe, fecabefec, abefecabe; ELEMENT cross, "
-               "square, rhombus", flag="-smooth", default="auto"),
+               "square, rhombus. Default: auto, but none with -method treex or watershed "
+               "(their papers work on the raw height model)", flag="-smooth", default=None),
          Param("min_height", "float", "Minimum tree height", flag="-min_height", default=2.0,
                unit="m"),
          Param("spacing", "str", "Plantation mode: planting spacing ROWSxTREES in m, e.g. 3x2, "
@@ -327,8 +328,11 @@ COMMANDS = {
         "GLCM texture, PCA, k-means",
         (Param("input", "input", INPUT.help + "; or a folder, glob or .vpc of point files (each "
                "file filtered with a buffer of its neighbours' points, one DTM over all)"),
-         Param("outdir", "outdir", "Output folder (CSV, hillshade PNGs, recommended_dtm.tif)",
-               required=True),
+         Param("outdir", "outdir", "Output folder (CSV, hillshade PNGs, recommended_dtm.tif). "
+               "The CSV ranks the DTMs (1 = most trusted) with a role and why: good (smooth "
+               "texture, agreeing with the sweep's median DTM), noisy, outlier (smooth but far "
+               "from that median), incomplete (under 1 ground point per 10 m², or not covering "
+               "the data)", required=True),
          Param("g", "str", "g values START:STOP:STEP (Leite et al.: -4:1:0.5)", flag="-g",
                default="-4:1:0.5"),
          Param("w", "str", "w values START:STOP:STEP (Leite et al.: 1:4:0.5)", flag="-w",

@@ -19,6 +19,7 @@ from ..io.raster import write_geotiff
 from ..progress import SubProgress, as_progress, check_cancel
 from ..report.plots import write_hillshade_png
 from ..tin import interpolate_tin
+from .consensus import agreement_limit, completeness, consensus_distances
 from .filter import KrausPfeifer, kraus_pfeifer, low_points
 from .texture import _standardise, kmeans, pca_select, texture_descriptors
 
@@ -79,12 +80,14 @@ def cluster_roles(X, names, labels) -> dict:
     return {c: ("good" if c == good else "noisy") for c in cl}
 
 
-def complete_dtms(results: list, footprint) -> np.ndarray:
-    """Which swept DTMs are complete: at least 3 ground points and at least 90 % of the cells
-    holding points covered (a TIN covers the hull of its ground points)."""
+def complete_dtms(results: list, footprint, res: float) -> tuple:
+    """Which swept DTMs are complete (:func:`lidartrees_gis.ground.consensus.completeness`: at
+    least 1 ground point per 10 m² of the data's footprint, 90 % of the cells holding points
+    covered; a TIN covers the hull of its ground points): ``(mask, coverage, density, why)``."""
     fp = np.asarray(footprint, bool)
     cov = np.array([np.isfinite(r[4])[fp].mean() if fp.any() else 0.0 for r in results])
-    return np.array([r[2] >= 3 for r in results]) & (cov >= 0.9), cov
+    ok, dens, why = completeness([r[2] for r in results], cov, float(fp.sum()) * res * res)
+    return ok, cov, dens, why
 
 
 def reference_agreement(dtm, ref) -> tuple:
@@ -108,17 +111,21 @@ def dtm_quality_file(input, outdir, *, g="-4:1:0.5", w="1:4:0.5", res="auto", pa
 
     ``params`` defaults to the seed's filter (``refine=0``: robust interpolation only, whose
     result depends on g and w; the densified filter of ``ground`` gives one DTM for most (g, w)).
-    Incomplete DTMs (fewer than 3 ground points, or less than 90 % of the data's cells covered)
-    are seed 003's group 2 and are set apart; the complete ones are clustered, the smoothest
-    cluster is *good*, the others *noisy* (:func:`cluster_roles`). When there are fewer than 3
-    distinct complete DTMs, each is a cluster.
+    Incomplete DTMs (fewer than 1 ground point per 10 m² of the data's footprint, or less than
+    90 % of the data's cells covered) are seed 003's group 2 and are set apart; the complete
+    ones are clustered, the smoothest cluster is *good*, the others *noisy*
+    (:func:`cluster_roles`). When there are fewer than 3 distinct complete DTMs, each is a
+    cluster. A good member too far from the sweep's consensus (the per-cell median of the
+    complete DTMs; :mod:`lidartrees_gis.ground.consensus`) is an *outlier*, not good.
 
     ``reference``: a reference ground to check the DTMs against, a DTM GeoTIFF path, ``auto``
     (the file's class-2 points when it has any, the vendor's ground, as a TIN) or ``none``.
     Each DTM's RMSE and mean difference to it go in the CSV, and the recommended DTM is then the
-    complete DTM closest to it (the texture's choice is reported beside, with its rank);
-    without a reference, the good cluster's member nearest its centroid. ``rank`` orders the
-    complete DTMs by distance to the good centroid (1 = best).
+    complete DTM closest to it (the sweep's own choice is reported beside, with its rank);
+    without a reference, the good DTM nearest the good centroid. ``rank`` orders the complete
+    DTMs, 1 the most trusted: the good ones, then the noisy ones (each by distance to the good
+    centroid: ``texture_rank``, seed 003's order), then the outliers; ``why`` says why each DTM
+    has its role.
     """
     out = Path(outdir)
     csv_path = out / "dtm_quality.csv"
@@ -181,7 +188,7 @@ def _existing_parent(out: Path) -> Path:
 def _analyse(out: Path, csv_path: Path, src, spec, r, base, results, footprint, ref, ref_source,
              seed, prog) -> dict:
     """Clusters, reference agreement, CSV, hillshades and the recommended DTM of a sweep."""
-    c = _clusters(results, seed, footprint)
+    c = _clusters(results, seed, footprint, r)
     agree = [reference_agreement(res_[4], ref) if ref is not None else (np.nan, np.nan, 0.0)
              for res_ in results]
     c["agree"] = agree
@@ -227,13 +234,18 @@ def _reference(reference, pts, spec):  # pts: only for "auto"
 
 def _summary(results, c, best, ref_source) -> dict:
     """What the run found, in plain figures."""
-    labels, roles, good = c["labels"], c["roles"], c["good"]
-    role = [roles.get(int(lb), "incomplete") if ok else "incomplete"
-            for lb, ok in zip(labels, c["complete"])]
+    from .consensus import MIN_GROUND_DENSITY
+
+    roles, good, role = c["roles"], c["good"], c["role"]
+    ranked = sorted((k for k in range(len(results)) if c["rank"][k]), key=lambda k: c["rank"][k])
     g_eq = [k for k, (gg, ww, *_) in enumerate(results) if abs(gg + ww) < 1e-9]
     out = {"selected_descriptors": [c["names"][i] for i in c["sel"]],
            "pc1_variance": float(c["var"][0]),
-           "clusters": {rl: role.count(rl) for rl in ("good", "noisy", "incomplete")},
+           "clusters": {rl: role.count(rl) for rl in ("good", "noisy", "outlier", "incomplete")},
+           "min_ground_density": MIN_GROUND_DENSITY,
+           "consensus_limit": round(float(c["limit"]), 3),
+           "ranked": [f"{c['rank'][k]}. g={results[k][0]:g} w={results[k][1]:g}: {c['why'][k]}"
+                      for k in ranked[:5]],
            "good_cluster": good, "roles": {str(k): v for k, v in roles.items()},
            "recommended_g": results[best][0], "recommended_w": results[best][1],
            "g_equals_minus_w_in_good": f"{sum(role[k] == 'good' for k in g_eq)}/{len(g_eq)}",
@@ -251,7 +263,10 @@ def _summary(results, c, best, ref_source) -> dict:
             "texture_recommended": f"g={results[tex][0]:g} w={results[tex][1]:g} "
                                    f"rmse={rm[tex]:.3f} (rank {int(np.nonzero(order == tex)[0][0]) + 1 if tex in order else 'n/a'} of {order.size})",
             "median_rmse_by_role": {rl: round(float(np.nanmedian([rm[k] for k in ok if role[k] == rl])), 3)
-                                    for rl in ("good", "noisy") if any(role[k] == rl for k in ok)},
+                                    for rl in ("good", "noisy", "outlier")
+                                    if any(role[k] == rl for k in ok)},
+            "good_rmse_max": round(float(np.nanmax([rm[k] for k in ok if role[k] == "good"])), 3)
+            if any(role[k] == "good" for k in ok) else None,
             "g_equals_minus_w_rmse": round(float(np.nanmedian(rm[g_eq])), 3) if g_eq else None})
     else:
         out["recommended_by"] = "texture (the good cluster's member nearest its centroid)"
@@ -306,16 +321,19 @@ def _sweep(pts, spec, base, combos, workers, prog) -> list:
     return results
 
 
-def _clusters(results: list, seed: int, footprint) -> dict:
+def _clusters(results: list, seed: int, footprint, res: float) -> dict:
     """Seed 003's analysis of the swept DTMs: incomplete ones set apart, descriptors selected
-    by PC1, k-means (k = 3) of the complete ones, the clusters' roles, each DTM's rank and the
-    texture's recommendation."""
+    by PC1, k-means (k = 3) of the complete ones, the clusters' roles; then the good cluster
+    checked against the sweep's consensus (:mod:`lidartrees_gis.ground.consensus`: its members
+    too far from the median DTM are *outliers*), each DTM's rank, why, and the texture's
+    recommendation."""
     names = list(results[0][3])
     X = np.array([[res_[3][n] for n in names] for res_ in results])
-    complete, cov = complete_dtms(results, footprint)
+    complete, cov, dens, why_incomplete = complete_dtms(results, footprint, res)
     idx = np.nonzero(complete)[0]
     if idx.size == 0:
-        raise InputError("dtm-quality: no (g, w) gave a complete DTM; widen -g/-w")
+        raise InputError("dtm-quality: no (g, w) gave a complete DTM (1 ground point per 10 m² "
+                         "covering 90 % of the data's cells); widen -g/-w")
     Xc = X[idx]
     sel, _, var = pca_select(Xc, 0.3)
     if sel.size == 0:  # PC1 spread evenly (every |loading| < 0.3): keep every descriptor
@@ -330,29 +348,66 @@ def _clusters(results: list, seed: int, footprint) -> dict:
     Z[idx] = Zc
     dist = np.full(len(results), np.inf)
     dist[idx] = np.linalg.norm(Zc - cent[good], axis=1)
-    rank = np.zeros(len(results), int)
-    rank[idx] = np.argsort(np.argsort(dist[idx])) + 1
+    texture_rank = np.zeros(len(results), int)
+    texture_rank[idx] = np.argsort(np.argsort(dist[idx])) + 1
+    agree = consensus_distances([res_[4] for res_ in results], complete, footprint)
     members = np.nonzero(labels == good)[0]
+    limit = agreement_limit(agree[members])
+    role = [("incomplete" if not complete[k] else roles[int(labels[k])])
+            for k in range(len(results))]
+    for k in members:
+        if not agree[k] <= limit:
+            role[k] = "outlier"
+    trusted = [k for k in members if role[k] == "good"]
+    # the ranking: good (nearest the good centroid first), noisy (likewise), outliers (nearest
+    # the consensus first); incomplete DTMs have none
+    key = {"good": 0, "noisy": 1, "outlier": 2}
+    order = sorted(idx, key=lambda k: (key[role[k]], agree[k] if role[k] == "outlier" else dist[k]))
+    rank = np.zeros(len(results), int)
+    rank[np.asarray(order, int)] = np.arange(1, len(order) + 1)
+    why = [_why(role[k], labels[k], agree[k], limit, why_incomplete[k])
+           for k in range(len(results))]
     return {"names": names, "sel": sel, "var": var, "Z": Z, "labels": labels, "cent": cent,
-            "roles": roles, "good": good, "rank": rank, "complete": complete, "coverage": cov,
-            "best": int(members[np.argmin(dist[members])])}
+            "roles": roles, "good": good, "rank": rank, "texture_rank": texture_rank,
+            "complete": complete, "coverage": cov, "density": dens, "consensus": agree,
+            "limit": limit, "role": role, "why": why,
+            "best": int(min(trusted, key=lambda k: dist[k]))}
+
+
+def _why(role, label, agree, limit, incomplete) -> str:
+    """One line saying why a DTM has its role."""
+    if role == "incomplete":
+        return f"incomplete: {incomplete}"
+    near = f"{agree:.2f} m from the sweep's median DTM"
+    if role == "outlier":
+        return (f"outlier: smooth texture (cluster {label}) but {near}, over the good "
+                f"cluster's limit {limit:.2f} m")
+    if role == "good":
+        return f"good: smooth texture (cluster {label}), {near} (limit {limit:.2f} m)"
+    return f"noisy: texture cluster {label} (spikes or holes)"
 
 
 def _write_csv(path: Path, results: list, c: dict) -> None:
+    """One row per (g, w): its ground, texture, cluster, role, rank (1 = the most trusted,
+    :func:`_clusters`), the texture's own rank (distance to the good centroid), the distance to
+    the sweep's consensus, the agreement with the reference and why it has its role."""
     from ..io.output import atomic_output
 
-    names, labels, roles, rank = c["names"], c["labels"], c["roles"], c["rank"]
+    names, labels, rank = c["names"], c["labels"], c["rank"]
     with atomic_output(path, overwrite=True) as tmp:
         with open(tmp, "w", encoding="utf-8") as fh:
-            fh.write("g,w,ground_points,coverage," + ",".join(names)
-                     + ",cluster,role,rank,ref_rmse,ref_bias,ref_coverage\n")
+            fh.write("g,w,ground_points,ground_density,coverage," + ",".join(names)
+                     + ",cluster,role,rank,texture_rank,consensus_mad,ref_rmse,ref_bias,"
+                       "ref_coverage,why\n")
             for k, (gg, ww, ng, d, _) in enumerate(results):
-                role = roles[int(labels[k])] if c["complete"][k] else "incomplete"
                 rm, bias, rc = c["agree"][k]
-                fh.write(f"{gg:g},{ww:g},{ng},{c['coverage'][k]:.4f},"
+                why = c["why"][k].replace('"', "'")
+                fh.write(f"{gg:g},{ww:g},{ng},{c['density'][k]:.4g},{c['coverage'][k]:.4f},"
                          + ",".join(f"{d[n]:.6g}" for n in names)
-                         + f",{labels[k] if labels[k] >= 0 else ''},{role},"
-                         + f"{rank[k] or ''},{_num(rm)},{_num(bias)},{rc:.4f}\n")
+                         + f",{labels[k] if labels[k] >= 0 else ''},{c['role'][k]},"
+                         + f"{rank[k] or ''},{c['texture_rank'][k] or ''},"
+                         + f"{_num(c['consensus'][k])},{_num(rm)},{_num(bias)},{rc:.4f},"
+                         + f'"{why}"\n')
 
 
 def _num(v) -> str:

@@ -21,8 +21,10 @@ Two rules place the boundaries (``rule``):
   below the stem start are then stem); the canopy start where the tree's horizontal spread
   leaves the stem's (:func:`crown_base`): the lowest slice above breast height from which the
   points lie farther from the slice's centre than :data:`SPREAD_FACTOR` times the stem's spread
-  (measured between 1 and 3 m) and :data:`SPREAD_MIN` m more, over the next metre. This is where
-  the first branches start, the boundary the seed's inflection marks on a clean profile.
+  (on the narrowest metre between 0.5 and 3 m, so that a 6 m sapling whose crown starts at
+  1.5-2 m keeps its crown out of the stem's measure) and :data:`SPREAD_MIN` m more, over the
+  next metre. This is where the first branches start, the boundary the seed's inflection marks
+  on a clean profile.
 """
 from __future__ import annotations
 
@@ -110,22 +112,48 @@ def slice_spread(x, y, z, *, bin: float = 0.25):  # noqa: A002
 
 
 #: ``rule="spread"``: a stem spreads less than this (m, the 90th percentile distance of a
-#: 1.2 m thick stem); a tree wider between 1 and 3 m has branches there (a spruce)
+#: 1.2 m thick stem); a tree wider on every metre between 0.5 and 3 m has branches there (a
+#: spruce)
 STEM_MAX = 0.6
+
+
+#: ``rule="spread"``: the stem's spread is measured on 1 m of slices between these heights (m)
+STEM_ZONE = (0.5, 3.0)
+
+
+def stem_spread(zc, sp, bin: float):  # noqa: A002
+    """The stem's spread: the smallest median spread of 1 m of consecutive slices lying between
+    :data:`STEM_ZONE` (the narrowest metre of the lower bole, so that the crown of a short tree
+    starting at 1.5-2 m does not count as stem, nor a flare at the ground). None when no such
+    metre has a measured slice."""
+    run = max(1, int(round(1.0 / bin)))
+    lo, hi = STEM_ZONE
+    best = None
+    for i in range(zc.size):
+        if zc[i] - bin / 2 < lo - 1e-9:
+            continue
+        if zc[i] - bin / 2 + run * bin > hi + 1e-9:
+            break
+        w = sp[i:i + run]
+        w = w[np.isfinite(w)]
+        if w.size * 2 >= run:
+            m = float(np.median(w))
+            best = m if best is None else min(best, m)
+    return best
 
 
 def crown_base(x, y, z, *, bin: float = 0.25, factor: float = SPREAD_FACTOR,  # noqa: A002
                minimum: float = SPREAD_MIN):
     """Height above z_min where the crown begins: the lowest slice above 1.3 m from which at
     least half of the slices of the next metre (itself included) spread more than
-    ``max(factor * s0, s0 + minimum)``, s0 the median spread of the slices between 1 and 3 m
-    (the stem). When s0 is over :data:`STEM_MAX` the tree has branches there: the lowest slice
-    from which the next metre spreads more than that. None when no slice does (a bare pole)."""
+    ``max(factor * s0, s0 + minimum)``, s0 the stem's spread (:func:`stem_spread`: the
+    narrowest metre between 0.5 and 3 m). When s0 is over :data:`STEM_MAX` the tree has
+    branches there: the lowest slice from which the next metre spreads more than that. None
+    when no slice does (a bare pole)."""
     zc, sp = slice_spread(x, y, z, bin=bin)
-    stem = sp[(zc >= 1.0) & (zc <= 3.0) & np.isfinite(sp)]
-    if stem.size == 0:
+    s0 = stem_spread(zc, sp, bin)
+    if s0 is None:
         return None
-    s0 = float(np.median(stem))
     if s0 > STEM_MAX:
         wide, above = np.nan_to_num(sp, nan=0.0) > STEM_MAX, 0.0
     else:

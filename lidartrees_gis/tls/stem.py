@@ -23,7 +23,9 @@ For each horizontal section of ``section`` metres from the base:
 At 1.30 m the section's outline is measured too (:func:`outline_diameter`: the girth a tape
 follows, the convex hull's perimeter / pi); when it is more than :data:`BUTTRESS_RATIO` times the
 fitted circle's diameter, the section is not round (buttresses, flutes, a fork) and the result
-says so: the Dmax circle then fits the inner core.
+says so: the Dmax circle then fits the inner core. A slice too sparse for the outline (fewer
+than :data:`OUTLINE_MIN_SECTORS` of its sectors hold 3 points) has none, and the result's
+``warning`` says the roundness was not checked.
 
 The scan's spacings set the search points (``hspacing``) and the points a complete section
 holds, ``2 pi r / hspacing x section / vspacing`` (``expected_points`` per section, and its
@@ -116,13 +118,20 @@ def dmax_loop(x, y, circ: Circle, max_iter=50):
 BUTTRESS_RATIO = 1.15
 
 
-def outline_diameter(x, y, centre, search: float, sectors: int = 36) -> float:
+#: the outline's angular sectors, and how many must hold 3 points or more for it to be measured
+#: (half the girth: a single scan sees about half of a stem)
+OUTLINE_SECTORS, OUTLINE_MIN_SECTORS = 36, 18
+
+
+def outline_diameter(x, y, centre, search: float, sectors: int = OUTLINE_SECTORS,
+                     min_sectors: int = 3, with_sectors: bool = False):
     """Diameter a girth tape gives, robust to scan noise and strays: the section's points
     within ``search`` of ``centre`` (a square, the filter's search region) in ``sectors``
     angular sectors around the centre; in each sector of 3 points or more, the median distance
     to the centre; the perimeter of the convex hull of those sector points, over pi. A round
-    stem gives its diameter; buttresses, flutes or a fork a larger one. NaN with fewer than 3
-    sectors."""
+    stem gives its diameter; buttresses, flutes or a fork a larger one. NaN with fewer than
+    ``min_sectors`` such sectors (and fewer than 3). With ``with_sectors``, returns
+    ``(diameter, sectors measured, points in the square)``."""
     from scipy.spatial import ConvexHull, QhullError
 
     x, y = np.asarray(x, float), np.asarray(y, float)
@@ -136,12 +145,13 @@ def outline_diameter(x, y, centre, search: float, sectors: int = 36) -> float:
         if di.size >= 3:
             a = -np.pi + (i + 0.5) * 2 * np.pi / sectors
             pts.append((np.median(di) * np.cos(a), np.median(di) * np.sin(a)))
-    if len(pts) < 3:
-        return float("nan")
-    try:
-        return float(ConvexHull(np.asarray(pts)).area / np.pi)  # 2-D "area" is the perimeter
-    except QhullError:
-        return float("nan")
+    out = float("nan")
+    if len(pts) >= max(3, min_sectors):
+        try:
+            out = float(ConvexHull(np.asarray(pts)).area / np.pi)  # 2-D "area" is the perimeter
+        except QhullError:
+            pass
+    return (out, len(pts), int(m.sum())) if with_sectors else out
 
 
 def _stem_centre(x, y, z, p: DmaxParams) -> tuple:
@@ -266,8 +276,14 @@ def dmax_filter(x, y, z, params: DmaxParams | None = None, *, centre=None, progr
         at = [r for r in conv if abs(r["z"] - 1.30) <= 0.10]
         ctr = (float(np.median([r["xc"] for r in at])), float(np.median([r["yc"] for r in at])))
         slab = np.abs(zz - 1.30) <= 0.05
-        outline = outline_diameter(x[slab], y[slab], ctr, p.search)
-        if outline > BUTTRESS_RATIO * dbh:
+        outline, n_sec, n_pts = outline_diameter(x[slab], y[slab], ctr, p.search,
+                                                 min_sectors=OUTLINE_MIN_SECTORS, with_sectors=True)
+        if not np.isfinite(outline):
+            warning = (f"the slice at 1.30 m is too sparse for its outline ({n_pts} points, "
+                       f"{n_sec} of {OUTLINE_SECTORS} sectors with 3 or more, "
+                       f"{OUTLINE_MIN_SECTORS} needed): whether the stem is round there "
+                       "(buttresses, flutes) is not checked")
+        elif outline > BUTTRESS_RATIO * dbh:
             warning = (f"the section at 1.30 m is not round (buttresses, flutes or a fork?): "
                        f"its outline gives {100 * outline:.1f} cm (a girth tape), the Dmax "
                        f"circle {100 * dbh:.1f} cm (the inner core); measure above the "
