@@ -66,7 +66,8 @@ DELIM = Param("delimiter", "str", "XYZ column delimiter: tab, space, comma, semi
 DECIMAL_COMMA = Param("decimal_comma", "bool", "XYZ numbers use a decimal comma (detected when not "
                       "given)", flag="--decimal-comma", default=None, advanced=True)
 COLUMNS = Param("columns", "str", "XYZ column names in order, e.g. x,y,z,intensity,classification "
-                "(- skips a column); default from the header or x,y,z", flag="--columns", advanced=True)
+                "(- skips a column); default from the header or x,y,z", flag="--columns",
+                aliases=("-columns",), advanced=True)
 SKIP_INVALID = Param("skip_invalid", "bool", "Skip malformed XYZ lines and report how many, instead "
                      "of failing", flag="--skip-invalid", default=False, advanced=True)
 RES = Param("res", "res", "Cell size in metres, or auto = sqrt(1/n) from the point density n "
