@@ -217,9 +217,10 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
     area = open_area(input, read)
     check_outputs(outputs, area.files, out.overwrite)
     if stands is not None:
-        from .stands import load_stands
+        from .stands import check_overlap, load_stands
 
         stands = load_stands(stands, area.crs, stand_id)
+        check_overlap(stands, area.extent, area.label())
     with runner_for(area, tiling) as runner:
         prog.update(0.01, "measuring the area")
         plan, ready = plan_area(area, surface, tiling, runner=runner, params=p, keep=True,
