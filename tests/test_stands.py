@@ -113,7 +113,8 @@ def test_each_stand_gets_its_own_lattice_and_stocking(two_stands, capsys):
     table = pd.read_csv(csv)
     assert list(table["stand_id"]) == ["T-01", "T-02"]
     assert list(table["missing_trees"]) == list(stands["missing_trees"])
-    assert np.allclose(table["dominant_height"], stands["dominant_height"], atol=1e-3)
+    # rounded to the cm (issue 37: figures rounded to what they mean)
+    assert np.allclose(table["dominant_height"], stands["dominant_height"], atol=0.0051)
     # described fields and a default style
     con = sqlite3.connect(out)
     docs = dict(con.execute("SELECT column_name, description FROM gpkg_data_columns "

@@ -31,7 +31,7 @@ from ..io.output import OutputOptions, atomic_output, check_outputs
 from ..io.provenance import raster_tags, repro_meta, repro_report
 from ..progress import SubProgress, as_progress
 from .area import AreaPlan, one_tile_area, plan_area
-from .sinks import GpkgTreeLayers, QuickLook, Tally, TreeLayers, TreesSummary, TreexCsv
+from .sinks import GpkgTreeLayers, QuickLook, Tally, TreeLayers, TreesSummary, TreesTable
 from .surfaces import SurfaceOptions, box_surfaces
 from .stands import StandsTally, write_stand_csv
 from .tile import tile_first_tops, tile_trees, warn_sparse_plantation
@@ -261,7 +261,7 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
                 srows = tally.rows(plan.res, p.spacing)
                 tally.check_cover(srows)
                 if stand_csv:
-                    write_stand_csv(sinks["stand_csv"], srows)
+                    write_stand_csv(sinks["stand_csv"], srows, out.table)
             sinks["layers"].finish(row, p.spacing is not None,
                                    None if srows is None else (srows, stands.geoms))
         if png:
@@ -290,7 +290,13 @@ def _area_grids(runner, area, p: TreeParams, plan: AreaPlan, surface, stands, pr
     if not found:
         return {"all": None}
     x, y, z = (np.concatenate([np.asarray(r[k]) for r in found]) for k in ("x", "y", "zone"))
-    return fit_stand_grids(x, y, z if stands is not None else None, p.spacing, whole=True)
+    from .positions import add_anchors
+    from .tile import number_regions
+
+    grids = fit_stand_grids(x, y, z if stands is not None else None, p.spacing, whole=True)
+    # where each stand's row and plant numbers start: made once here, for every tile
+    zones = [-1] + ([] if stands is None else list(range(len(stands))))
+    return add_anchors(grids, number_regions(stands, area.extent), plan.res, zones)
 
 
 def _stands_result(stands, rows, tally, stand_csv) -> dict:
@@ -348,7 +354,8 @@ def _trees_sinks(stack, input, output, area, p, plan, surface, out, csv, chm_out
                                                                param="-stand_csv"))
     if csv:
         ctmp = stack.enter_context(atomic_output(csv, out.overwrite, param="-csv"))
-        sinks["csv"] = TreexCsv(ctmp, gspec)
+        sinks["csv"] = TreesTable(ctmp, gspec, None if stands is None else stands.ids,
+                                  out.table)
         stack.callback(sinks["csv"].close)
     if chm_out:
         mtmp = stack.enter_context(atomic_output(chm_out, out.overwrite, param="-chm_out"))

@@ -485,15 +485,20 @@ def field_docs(columns) -> dict:
     return out
 
 
-def write_stand_csv(path, rows: list) -> None:
-    """The stands' figures as a CSV table (one row per stand, the stands layer's fields;
-    numbers with a point for decimals, as the GeoPackage)."""
-    import csv
+#: decimals of the stands table's numbers: hectares to the m², heights and diameters to the
+#: cm, per-hectare figures to 0.1, percentages to 0.01, azimuths to 0.1°
+STAND_DECIMALS = {"area_ha": 4, "planted_area_ha": 4, "data_cover_pct": 2,
+                  "canopy_cover_pct": 2, "stocking_pct": 2, "trees_per_ha": 1,
+                  "planted_per_ha": 1, "mean_height": 2, "sd_height": 2, "dominant_height": 2,
+                  "mean_crown_diameter": 2, "row_azimuth": 1}
 
-    fields = list(dict.fromkeys(k for r in rows for k in r))
-    with open(path, "w", newline="", encoding="utf-8") as fh:
-        w = csv.DictWriter(fh, fieldnames=fields)
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: (round(v, 4) if isinstance(v, float) and np.isfinite(v)
-                            else "" if isinstance(v, float) else v) for k, v in r.items()})
+
+def write_stand_csv(path, rows: list, options=None) -> None:
+    """The stands' figures as a table (one row per stand, the stands layer's fields, the
+    user's attributes included): CSV in the dialect of ``options`` (the locale's by default,
+    see :mod:`lidartrees_gis.io.tables`), or a workbook when ``path`` ends in ``.xlsx``.
+    Numbers are rounded to what they mean (:data:`STAND_DECIMALS`); ids are text."""
+    from ..io.tables import write_table
+
+    write_table(path, rows, decimals=STAND_DECIMALS, text=("stand_id",), options=options,
+                name="stands")
