@@ -175,7 +175,7 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
               surface: SurfaceOptions | None = None, read: ReadOptions | None = None,
               tiling: TilingOptions | None = None, out: OutputOptions | None = None, png=None,
               csv=None, chm_out=None, stands=None, stand_id=None, stand_csv=None,
-              progress=None) -> dict:
+              title=None, progress=None) -> dict:
     """Tree tops, crowns and a stand summary from points or a CHM, into a GeoPackage.
 
     Parameters
@@ -198,6 +198,9 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
         The stands' id field (default: the first of ``stand_id``, ``talhao``, ... present).
     stand_csv : str or Path, optional
         Also write the stands' figures as a CSV table.
+    title : str, optional
+        The quick look's title (default: the input's name and the summary, which then follows
+        on a second line).
 
     Returns
     -------
@@ -265,7 +268,7 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
             sinks["layers"].finish(row, p.spacing is not None,
                                    None if srows is None else (srows, stands.geoms))
         if png:
-            sinks["quicklook"].write(png, _title(row, input), out.overwrite,
+            sinks["quicklook"].write(png, _title(row, input, title), out.overwrite,
                                      stands=None if stands is None else (stands.ids, stands.geoms))
     prog.update(1.0, "done")
     res = _trees_result(output, area, plan, summary, row, p, sinks["layers"], surface)
@@ -368,10 +371,11 @@ def _trees_sinks(stack, input, output, area, p, plan, surface, out, csv, chm_out
     return sinks
 
 
-def _title(row: dict, source) -> str:
+def _title(row: dict, source, title=None) -> str:
     from ..report.quicklook import quicklook_title
 
-    return quicklook_title(row, source if not isinstance(source, (list, tuple)) else None)
+    return quicklook_title(row, source if not isinstance(source, (list, tuple)) else None,
+                           title)
 
 
 def _round(v, n):

@@ -421,7 +421,7 @@ class QuickLook:
                                                              crs=spec.crs)
         self.chm = np.full(self.spec.shape, np.nan)
         self.crowns, self.x, self.y, self.gx, self.gy = [], [], [], [], []
-        self.ux, self.uy = [], []
+        self.ux, self.uy, self.sx, self.sy = [], [], [], []
 
     def add(self, r: dict) -> None:
         a = np.asarray(r["chm"], np.float64)
@@ -429,8 +429,11 @@ class QuickLook:
             self._paste(a, r["chm_left"], r["chm_top"])
         if len(r["tree_id"]):
             self.crowns.append(np.asarray(list(r["wkb"]), dtype=object))
-            self.x.append(np.asarray(r["x"]))
-            self.y.append(np.asarray(r["y"]))
+            sup = np.asarray(r.get("suppressed", np.zeros(len(r["x"]))), int) > 0
+            self.x.append(np.asarray(r["x"])[~sup])
+            self.y.append(np.asarray(r["y"])[~sup])
+            self.sx.append(np.asarray(r["x"])[sup])  # no crown of their own: marked apart
+            self.sy.append(np.asarray(r["y"])[sup])
         st = r.get("stocking")
         if st is not None and len(st["gaps_x"]):
             status = np.asarray(st.get("gaps_status", np.zeros(len(st["gaps_x"]))), int)
@@ -466,5 +469,7 @@ class QuickLook:
         rows, cols = self.spec.cell_index(x, y)
         gaps = (np.concatenate(self.gx), np.concatenate(self.gy)) if self.gx else None
         unc = (np.concatenate(self.ux), np.concatenate(self.uy)) if self.ux else None
+        sup = (np.concatenate(self.sx), np.concatenate(self.sy)) if self.sx else None
         write_quicklook(path, self.chm, labels, rows, cols, spec=self.spec, title=title,
-                        overwrite=overwrite, gaps=gaps, stands=stands, uncertain=unc)
+                        overwrite=overwrite, gaps=gaps, stands=stands, uncertain=unc,
+                        suppressed=sup)

@@ -125,6 +125,7 @@ def trees(input, output, **kw):
 
     r = trees_run(input, output, params=_tree_params(kw), surface=_surface(kw), read=_read(kw),
                   tiling=_tiling(kw), out=_out(kw), png=kw.get("png"), csv=kw.get("csv"),
+                  title=kw.get("title") or None,
                   chm_out=kw.get("chm_out"), stands=kw.get("stands") or None,
                   stand_id=kw.get("stand_id") or None, stand_csv=kw.get("stand_csv") or None,
                   progress=kw.get("progress"))

@@ -266,6 +266,8 @@ COMMANDS = {
          Param("png", "output", "Also write a quick-look PNG (the CHM in height classes with a "
                "legend, crown outlines, tops, coordinates, scale bar, the summary as title)",
                flag="-png", advanced=True),
+         Param("title", "str", "The quick look's title (default: the input's name and the "
+               "summary)", flag="-title", advanced=True),
          Param("csv", "output", "Also write the trees as a table (.csv, or .xlsx): tree_id, "
                "stand_id, row_number, plant_number, x, y, height, crown_diameter, crown_area, "
                "suppressed, chm_row, chm_col", flag="-csv", advanced=True),
