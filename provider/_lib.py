@@ -58,10 +58,13 @@ def executable_error():
     """None when a working ``lidartrees`` command is found, else what to do."""
     exe = find_executable()
     if exe is None:
-        return ("LiDAR Trees: the 'lidartrees' command was not found. Install it (python3 -m venv "
-                "~/.venvs/lidartrees && ~/.venvs/lidartrees/bin/pip install lidartrees_gis) and, if "
-                "it is not on the PATH, set the environment variable LIDARTREES_EXE or the QGIS "
-                f"setting '{SETTING}' to its path.")
+        return ("LiDAR Trees: the 'lidartrees' command was not found. Install the package "
+                "from the source folder (the one holding pyproject.toml) or the wheel "
+                "(lidartrees_gis-*.whl) you were given, in its own environment: python3 -m venv "
+                "~/.venvs/lidartrees && ~/.venvs/lidartrees/bin/pip install "
+                "/path/to/lidartrees_gis (it is not published on PyPI); then, if it is not on "
+                "the PATH, set the environment variable LIDARTREES_EXE or the QGIS setting "
+                f"'{SETTING}' to its path.")
     if exe not in _CHECKED:
         try:
             r = subprocess.run([exe, "--version"], capture_output=True, text=True, timeout=60)

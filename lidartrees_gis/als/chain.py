@@ -31,7 +31,8 @@ from ..io.output import OutputOptions, atomic_output, check_outputs
 from ..io.provenance import raster_tags, repro_meta, repro_report
 from ..progress import SubProgress, as_progress
 from .area import AreaPlan, one_tile_area, plan_area
-from .sinks import GpkgTreeLayers, QuickLook, Tally, TreeLayers, TreesSummary, TreesTable
+from .sinks import (GpkgTreeLayers, QuickLook, Tally, TreeLayers, TreesSummary, TreesTable,
+                    sidecar)
 from .surfaces import SurfaceOptions, box_surfaces
 from .stands import StandsTally, write_stand_csv
 from .tile import tile_first_tops, tile_trees, warn_sparse_plantation
@@ -267,6 +268,8 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
                     write_stand_csv(sinks["stand_csv"], srows, out.table)
             sinks["layers"].finish(row, p.spacing is not None,
                                    None if srows is None else (srows, stands.geoms))
+        if chm_out:
+            sidecar(chm_out, "chm.qml", out.overwrite, sinks["chm"].max)
         if png:
             sinks["quicklook"].write(png, _title(row, input, title), out.overwrite,
                                      stands=None if stands is None else (stands.ids, stands.geoms))

@@ -473,3 +473,14 @@ class QuickLook:
         write_quicklook(path, self.chm, labels, rows, cols, spec=self.spec, title=title,
                         overwrite=overwrite, gaps=gaps, stands=stands, uncertain=unc,
                         suppressed=sup)
+
+
+def sidecar(path, qml: str, overwrite: bool, top: float = float("nan")):
+    """The QGIS style ``qml`` beside a GeoTIFF output (``chm.tif`` -> ``chm.qml``), the CHM's
+    classes fitted to its highest cell ``top``
+    (:func:`lidartrees_gis.io.styles.write_sidecar_style`)."""
+    from ..io.styles import write_sidecar_style
+    from ..report.classes import height_classes
+
+    limits = height_classes(top) if qml == "chm.qml" and np.isfinite(top) and top > 0 else None
+    return write_sidecar_style(path, qml, overwrite, limits)

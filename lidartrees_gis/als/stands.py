@@ -450,7 +450,8 @@ FIELD_DOCS = {
     "canopy_cover_pct": "share of the covered part of the stand under a canopy height at or "
                         "above -min_height",
     "spacing": "planting spacing, rows x trees in a row (m; -spacing)",
-    "row_azimuth": "row direction of the stand's own planting lattice (degrees from north)",
+    "row_azimuth": "row direction of the stand's own planting lattice (degrees from north, an "
+                   "axis in [0, 180), to 0.1°)",
     "planting_positions": "positions of the stand's own planting lattice in its planted area",
     "stocked_positions": "planting positions with a tree top",
     "suppressed_trees": "planting positions without a top where a suppressed tree stands "

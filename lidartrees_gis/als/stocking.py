@@ -253,7 +253,8 @@ def crew_numbers(grid: PlantingGrid, i, j, anchor=None) -> tuple:
         np.minimum.at(first, r, ii[own])  # each row's first position
         row[own], plant[own] = r, ii[own] - first[r] + 1
     text = (f"row 1 on the {_compass(run - 90.0)} side (rows run {_compass(run + 180.0)} to "
-            f"{_compass(run)}, at {run % 360.0:.1f}°), plant 1 at the {_compass(run + 180.0)} "
+            f"{_compass(run)}, at {round(run, 1) % 360.0 + 0.0:.1f}°), plant 1 at the "
+            f"{_compass(run + 180.0)} "
             "end of each row" + (", within each stand" if anchor is not None else ""))
     return row, plant, text
 
@@ -557,7 +558,7 @@ def stocking_fields(spacing, azimuth: float, st: dict) -> dict:
     unc = st.get("uncertain_stocked", 0.0)
     if spacing is None:  # -spacing auto, and no lattice found
         spacing = (float("nan"), float("nan"))
-    return {"spacing": f"{spacing[0]:g}x{spacing[1]:g}", "row_azimuth": azimuth,
+    return {"spacing": f"{spacing[0]:g}x{spacing[1]:g}", "row_azimuth": axial_round(azimuth),
             "planting_positions": e, "stocked_positions": st["stocked"],
             "suppressed_trees": sup, "missing_trees": st["missing"],
             "uncertain_positions": st.get("uncertain", 0), "extra_tops": st["extra"],
@@ -565,6 +566,16 @@ def stocking_fields(spacing, azimuth: float, st: dict) -> dict:
             "stocking_pct": 100.0 * (st["stocked"] + sup + unc) / e if e else float("nan"),
             "planted_per_ha": 1e4 / (spacing[0] * spacing[1]),
             "planted_area_ha": st["planted_area_ha"]}
+
+
+def axial_round(azimuth, ndigits: int = 1) -> float:
+    """A row azimuth as every output reports it: an axis (rows at 0° and 180° are the same
+    rows) in [0, 180), rounded to ``ndigits`` (the lattice fit's 0.05° step) before it is
+    brought into the range, so rows at 179.96° read 0.0 as rows at 0.01° do, never 180.0."""
+    a = float(azimuth)
+    if not np.isfinite(a):
+        return float("nan")
+    return round(a % 180.0, ndigits) % 180.0 + 0.0
 
 
 def axial_mean(azimuths, weights=None) -> float:
