@@ -245,7 +245,8 @@ def test_rows_and_plants_are_numbered_per_stand_in_every_tiling(farm, tmp_path, 
     of its tile)."""
     locale(None)
     layers = {}
-    for name, extra in (("one", []), ("tiled", ["-tile_size", "30", "-buffer", "12", "-workers", "1"])):
+    for name, extra in (("one", []),
+                        ("tiled", ["-tile_size", "30", "-buffer", "12", "-workers", "1"])):
         out = tmp_path / f"{name}.gpkg"
         _trees(farm, out, "-stands", str(farm["dir"] / "talhoes.gpkg"), "-spacing", "3x2",
                *extra)

@@ -167,7 +167,8 @@ def stand_names(index, stand_ids) -> np.ndarray:
 def gap_arrays(st: dict, res: float, tile, stand_ids=None) -> dict:
     """The empty planting positions of one tile: ids from the position's cell in the global
     grid (as tree_id), row and plant numbers as a crew counts them
-    (:func:`lidartrees_gis.als.stocking.crew_numbers`, per stand: the same in every tiling) and, with
+    (:func:`lidartrees_gis.als.stocking.crew_numbers`, per stand: the same in every tiling)
+    and, with
     stands, the stand's id."""
     gx, gy = np.asarray(st["gaps_x"], float), np.asarray(st["gaps_y"], float)
     out = {"gap_id": tree_ids(gx, gy, res),

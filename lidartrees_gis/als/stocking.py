@@ -173,49 +173,12 @@ def _compass(azimuth: float) -> str:
     return _COMPASS[int(((azimuth % 360.0) + 22.5) // 45.0) % 8]
 
 
-def _heading(grid: PlantingGrid) -> tuple:
+def row_heading(grid: PlantingGrid) -> tuple:
     """``(s, run)``: the sign that turns the lattice's ``u`` towards the northern half (or
     east), and the rows' bearing in [-90, 90]."""
     a = grid.azimuth % 180.0
     s = 1.0 if a <= 90.0 else -1.0
     return s, (a if s > 0 else a - 180.0)
-
-
-def lattice_anchor(grid: PlantingGrid, region, res: float) -> tuple:
-    """Where a stand's row and plant numbers start: ``(j0, first)``, the first row of the
-    lattice nodes that lie in ``region`` (a shapely polygon: the stand, or the area's extent)
-    and each row's first node (``first[k]``: row ``j0 + k``; a huge value for a row with
-    none), in :func:`crew_numbers`'s signed indices. A node lies in the region when the centre
-    of its cell (a grid of ``res`` aligned to multiples of ``res``, as every tile's) does, as
-    a stand's cells are found (:func:`lidartrees_gis.als.stands.zones`). It depends on the
-    lattice and the region only, so every tile of a run numbers a stand's trees alike."""
-    import shapely
-
-    from ..grid import EDGE_EPS
-
-    s, _ = _heading(grid)
-    x0, y0, x1, y1 = region.bounds
-    ci, cj = grid.to_lattice(np.array([x0, x0, x1, x1]), np.array([y0, y1, y0, y1]))
-    ia = np.arange(np.floor(ci.min()) - 1, np.ceil(ci.max()) + 2)
-    ja = np.arange(np.floor(cj.min()) - 1, np.ceil(cj.max()) + 2)
-    big = np.iinfo(np.int64).max
-    shapely.prepare(region)
-    rows_j, rows_i = [], []
-    for block in np.array_split(ja, max(1, ja.size * ia.size // 1_000_000 + 1)):
-        ii, jj = np.meshgrid(ia, block)
-        nx, ny = grid.to_map(ii.ravel(), jj.ravel())
-        cx = (np.floor(nx / res + EDGE_EPS) + 0.5) * res
-        cy = (np.floor(ny / res + EDGE_EPS) + 0.5) * res
-        inside = shapely.contains_xy(region, cx, cy)
-        rows_j.append(np.round(s * jj.ravel()[inside]).astype(np.int64))
-        rows_i.append(np.round(s * ii.ravel()[inside]).astype(np.int64))
-    sj, si = np.concatenate(rows_j), np.concatenate(rows_i)
-    if not sj.size:
-        return 0, np.empty(0, np.int64)
-    j0 = int(sj.min())
-    first = np.full(int(sj.max()) - j0 + 1, big, np.int64)
-    np.minimum.at(first, sj - j0, si)
-    return j0, first
 
 
 def crew_numbers(grid: PlantingGrid, i, j, anchor=None) -> tuple:
@@ -225,12 +188,13 @@ def crew_numbers(grid: PlantingGrid, i, j, anchor=None) -> tuple:
     direction (the west side of north-south rows, the north side of east-west ones) and the
     rows count across the stand; in each row, plant 1 is the row's first position from its
     southern (western) end, counted along the row with the gaps. ``anchor``: the stand's
-    first row and rows' first positions (:func:`lattice_anchor`), so that the numbers are the
+    first row and rows' first positions
+    (:func:`lidartrees_gis.als.positions.lattice_anchor`), so that the numbers are the
     stand's whichever tile counts them; without it, those of the positions given. Returns
     ``(row, plant, text)``."""
     i = np.asarray(i, float)
     j = np.asarray(j, float)
-    s, run = _heading(grid)
+    s, run = row_heading(grid)
     ii, jj = np.round(s * i).astype(np.int64), np.round(s * j).astype(np.int64)
     if ii.size == 0:
         return ii, ii, ""
@@ -286,7 +250,7 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
     stand); ``own``: the tops counted as extra when they take no position (default all).
     ``look_x, look_y``: every empty position, inside the box or not (a tree looked for at an
     empty position beyond a tile's core may stand inside it). ``anchor``: where the stand's
-    numbers start (:func:`lattice_anchor`).
+    numbers start (:func:`lidartrees_gis.als.positions.lattice_anchor`).
     """
     R, C = spacing
     tx = np.asarray(top_x, float)

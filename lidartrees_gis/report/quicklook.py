@@ -51,12 +51,11 @@ def write_quicklook(path, chm, labels, rows, cols, *, spec=None, title=None, ove
                                    stands=stands, uncertain=uncertain, suppressed=suppressed)
     title = fig._suptitle.get_text()
     with atomic_output(path, overwrite, param="-png") as tmp:
-        fig.savefig(tmp, format="png", bbox_inches="tight", pad_inches=0.25, metadata={"Title": title.split("\n")[0],
-                                                 "Description": title,
-                                                 "Comment": f"tree tops {counts[0]}; "
-                                                            f"suppressed trees {counts[2]}; "
-                                                            f"missing trees {counts[1]}",
-                                                 "Software": f"lidartrees_gis {__version__}"})
+        fig.savefig(tmp, format="png", bbox_inches="tight", pad_inches=0.25,
+                    metadata={"Title": title.split("\n")[0], "Description": title,
+                              "Comment": f"tree tops {counts[0]}; suppressed trees "
+                                         f"{counts[2]}; missing trees {counts[1]}",
+                              "Software": f"lidartrees_gis {__version__}"})
     plt.close(fig)
 
 
