@@ -84,7 +84,7 @@ def test_row_azimuths_are_one_axis_in_0_180():
     from lidartrees_gis.als.stocking import axial_round, stocking_fields
 
     for a, want in ((179.96, 0.0), (-0.04, 0.0), (180.0, 0.0), (359.97, 0.0), (0.04, 0.0),
-                    (145.04, 145.0), (-35.0, 145.0), (179.9, 179.9)):
+                    (145.04, 145.0), (-35.0, 145.0), (179.9, 179.9), (179.95, 0.0)):
         assert axial_round(a) == want, a
     st = {"expected": 10, "stocked": 9, "missing": 1, "extra": 0, "planted_area_ha": 0.1}
     assert stocking_fields((3, 2), 179.97, st)["row_azimuth"] == 0.0  # was 179.97: "180.0"

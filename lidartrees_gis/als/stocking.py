@@ -539,7 +539,7 @@ def axial_round(azimuth, ndigits: int = 1) -> float:
     a = float(azimuth)
     if not np.isfinite(a):
         return float("nan")
-    return round(a % 180.0, ndigits) % 180.0 + 0.0
+    return round(a % 180.0 + 1e-9, ndigits) % 180.0 + 0.0  # half up: 179.95 reads 0.0
 
 
 def axial_mean(azimuths, weights=None) -> float:

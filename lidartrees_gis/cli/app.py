@@ -83,8 +83,10 @@ def _places(key: str, v: float) -> float:
     k = str(key).lower()
     if k.endswith("per_ha"):
         return round(v, 1)
-    if k.endswith("pct") or "azimuth" in k:
-        return round(v, 2 if k.endswith("pct") else 1)
+    if "azimuth" in k:  # an axis in [0, 180): 179.96 reads 0.0, not 180.0
+        return round(v % 180.0 + 1e-9, 1) % 180.0
+    if k.endswith("pct"):
+        return round(v, 2)
     if any(w in k for w in ("height", "bias", "rmse", "diameter", "distance", "dist")):
         return round(v, 2)
     if k in ("recall", "precision", "f_score") or k.endswith("share"):
