@@ -134,3 +134,19 @@ def test_decimal_commas_in_options(stand_las, tmp_path, capsys):
     assert parse_spacing("3 × 2") == (3.0, 2.0)
     assert main(["trees", str(f), str(tmp_path / "t.gpkg"), "-spacing", "3x2",
                  "-min_height", "2,5", "-q"]) == 0
+
+
+def test_numbering_text_and_layers_give_the_same_row_azimuth(stand_las, tmp_path):
+    """The summary's numbering rule once said 'at 359.9°' beside a row_azimuth of 0.0 (or
+    179.95) for the same rows: both now give the axis in [0, 180) to 0.1°."""
+    import pyogrio
+
+    f, _ = stand_las
+    out = tmp_path / "t.gpkg"
+    assert main(["trees", str(f), str(out), "-spacing", "3x2", "-q"]) == 0
+    s = pyogrio.read_dataframe(out, layer="summary").iloc[0]
+    az = float(s["row_azimuth"])
+    assert 0.0 <= az < 180.0 and round(az, 1) == az
+    m = re.search(r"row azimuth ([0-9.]+)°", s["numbering"])
+    assert m and float(m.group(1)) == az, s["numbering"]
+    assert min(az, 180 - az) < 1.0  # the generator's north-south rows

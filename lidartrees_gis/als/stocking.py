@@ -217,9 +217,9 @@ def crew_numbers(grid: PlantingGrid, i, j, anchor=None) -> tuple:
         np.minimum.at(first, r, ii[own])  # each row's first position
         row[own], plant[own] = r, ii[own] - first[r] + 1
     text = (f"row 1 on the {_compass(run - 90.0)} side (rows run {_compass(run + 180.0)} to "
-            f"{_compass(run)}, at {round(run, 1) % 360.0 + 0.0:.1f}°), plant 1 at the "
-            f"{_compass(run + 180.0)} "
-            "end of each row" + (", within each stand" if anchor is not None else ""))
+            f"{_compass(run)}, row azimuth {axial_round(grid.azimuth):.1f}°), plant 1 at the "
+            f"{_compass(run + 180.0)} end of each row"
+            + (", within each stand" if anchor is not None else ""))
     return row, plant, text
 
 
