@@ -125,3 +125,15 @@ def test_single_dash_columns_is_accepted_as_the_warning_says(cloud, tmp_path):
     assert main(["chm", str(f), str(out), "-a_srs", "EPSG:31984", "-q",
                  "-columns", "x,y,z,intensity,-,return_number"]) == 0
     assert out.exists()
+
+
+def test_reference_tables_in_latin1_are_read(tmp_path):
+    """A tree table with a byte Windows-1252 leaves undefined (Latin-1 only) once failed with
+    a NameError (no encoding matched)."""
+    from lidartrees_gis.io.names import read_text_table
+
+    f = tmp_path / "ref.csv"
+    f.write_bytes("N\x81mero;Este;Norte;Altura\n1;412300,5;7952400,25;21,5\n".encode("latin-1"))
+    df = read_text_table(f)
+    assert list(df.columns)[1:] == ["Este", "Norte", "Altura"]
+    assert df["Este"].iloc[0] == 412300.5 and df["Altura"].iloc[0] == 21.5
