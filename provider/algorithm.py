@@ -197,6 +197,7 @@ LABELS = {
     "a_srs": "CRS of the input (assign)", "t_srs": "Reproject to CRS",
     "allow_no_crs": "Allow outputs without a CRS", "buffer": "Tile buffer",
     "chm": "Canopy height model", "columns": "Text columns (x,y,z,...)",
+    "title": "Quick-look title",
     "creation_options": "GeoTIFF creation options", "crown_scale": "Crown scale",
     "delimiter": "Text delimiter", "detected": "Detected tree tops",
     "drop_class": "Leave out LAS classes", "dtm": "Terrain model (DTM)",
