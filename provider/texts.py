@@ -67,7 +67,7 @@ LABELS = {
     "window_factor": "Window factor", "workers": "Workers",
     "min_separation": "Smallest distance between tops",
     "planting": "Planting lattice under the tops (without spacing)",
-    "png": "Quick-look PNG", "csv": "Trees CSV (TreeX layout)",
+    "png": "Quick-look PNG", "csv": "Trees CSV", "title": "Quick-look title",
     "vspacing": "Vertical scan spacing", "base": "Base height", "on_error": "When a tile fails",
     "resume": "Resume a killed run", "step": "Region-growing step",
 }

@@ -56,3 +56,62 @@ def test_quicklook_marks_missing_and_uncertain_positions_apart(tmp_path):
                     uncertain=([500020.0, 500030.0], [7500020.0, 7500020.0]))
     # the CHM's own ramp may hold orange: the triangles add to it
     assert orange(tmp_path / "b.png") > orange(tmp_path / "a.png") + 20
+
+
+def _figure_with_a_stand_beyond_the_data(**kw):
+    import shapely
+
+    from lidartrees_gis.grid import GridSpec
+    from lidartrees_gis.report.quicklook import quicklook_figure
+
+    spec = GridSpec.from_bounds(412300.0, 7952400.0, 412380.0, 7952480.0, 0.5)
+    chm = np.full(spec.shape, 20.0)
+    labels = np.ones(spec.shape, np.int64)
+    stands = (["T-01", "T-02"], [shapely.box(412300, 7952400, 412340, 7952480),
+                                 shapely.box(412340, 7952370, 412410, 7952480)])
+    return quicklook_figure(chm, labels, [30, 60], [30, 60], spec=spec, stands=stands,
+                            gaps=([412310.0], [7952410.0]),
+                            suppressed=([412320.0, 412330.0], [7952420.0, 7952420.0]),
+                            uncertain=([412350.0], [7952450.0]), **kw)
+
+
+def test_quicklook_legend_ticks_stands_and_suppressed_trees():
+    """Issue 37: the legend lies inside the figure (it was cut at the right edge), the lowest
+    ticks of the two axes do not meet in the corner, a stand reaching beyond the data is drawn
+    whole, and the suppressed trees are marked and counted."""
+    fig, counts = _figure_with_a_stand_beyond_the_data(title="Fazenda Rosa")
+    fig.canvas.draw()
+    r = fig.canvas.get_renderer()
+    whole = fig.bbox
+    leg = fig.legends[0]
+    b = leg.get_window_extent(r)
+    assert b.x0 >= whole.x0 and b.x1 <= whole.x1 and b.y0 >= whole.y0 and b.y1 <= whole.y1
+    texts = [t.get_text() for t in leg.get_texts()]
+    assert "suppressed trees (2)" in texts and "missing trees (1)" in texts
+    assert counts == (2, 1, 2)
+    ax = fig.axes[0]
+    assert ax.get_xlim()[1] >= 412410 and ax.get_ylim()[0] <= 7952370  # the stand, whole
+    xs = [t.get_window_extent(r) for t in ax.get_xticklabels() if t.get_text()]
+    ys = [t.get_window_extent(r) for t in ax.get_yticklabels() if t.get_text()]
+    assert xs and ys and not any(a.overlaps(b) for a in xs for b in ys)
+    assert fig._suptitle.get_text() == "Fazenda Rosa"
+
+
+def test_trees_title_option_titles_the_quick_look(tmp_path):
+    from PIL import Image
+    from pyproj import CRS
+
+    from lidartrees_gis.cli import main
+    from lidartrees_gis.io.lasout import write_points
+    from lidartrees_gis.synthetic import StandParams, make_stand
+
+    pts, _ = make_stand(StandParams(width=30, height=30))
+    stand_las_small = tmp_path / "s.las"
+    write_points(stand_las_small, pts.x, pts.y, pts.z, crs=CRS.from_epsg(29194),
+                 classification=pts.classification)
+    png = tmp_path / "q.png"
+    assert main(["trees", str(stand_las_small), str(tmp_path / "t.gpkg"), "-png", str(png),
+                 "-title", "Fazenda Rosa, talhão 7", "-q"]) == 0
+    text = Image.open(png).text
+    assert text["Title"] == "Fazenda Rosa, talhão 7"
+    assert "trees" in text["Description"].split("\n")[1]

@@ -113,7 +113,8 @@ def test_each_stand_gets_its_own_lattice_and_stocking(two_stands, capsys):
     table = pd.read_csv(csv)
     assert list(table["stand_id"]) == ["T-01", "T-02"]
     assert list(table["missing_trees"]) == list(stands["missing_trees"])
-    assert np.allclose(table["dominant_height"], stands["dominant_height"], atol=1e-3)
+    # rounded to the cm (issue 37: figures rounded to what they mean)
+    assert np.allclose(table["dominant_height"], stands["dominant_height"], atol=0.0051)
     # described fields and a default style
     con = sqlite3.connect(out)
     docs = dict(con.execute("SELECT column_name, description FROM gpkg_data_columns "
@@ -133,6 +134,21 @@ def test_stands_figures_do_not_depend_on_the_tiling(two_stands):
               "-spacing", "3x2", *extra])
         figs.append(gpd.read_file(out, layer="stands").set_index("stand_id"))
     one, tiled = figs
+    # issue 37: every tree and gap has the same row and plant numbers in both runs, in the
+    # turned stand (rows at 145°) too: each stand numbered from its own first row and plant
+    import pyogrio
+
+    for layer, key in (("tree_tops", "tree_id"), ("gaps", "gap_id")):
+        a, b = (pyogrio.read_dataframe(d / f"{n}.gpkg", layer=layer, read_geometry=False)
+                .set_index(key) for n in ("one", "tiled"))
+        common = a.index.intersection(b.index)
+        assert len(common) >= 0.95 * len(a), layer
+        for c in ("row_number", "plant_number", "stand_id"):
+            assert (a.loc[common, c] == b.loc[common, c]).all(), (layer, c)
+        if layer == "tree_tops":  # counted from the stand's own edge, not the tile's
+            for sid in ("T-01", "T-02"):
+                own = a[(a["stand_id"] == sid) & (a["row_number"] > 0)]
+                assert own["row_number"].min() <= 2 and own["plant_number"].min() == 1, sid
     # each stand's lattice is fitted once, on every tile's tops (a lattice per tile, a few
     # centimetres apart, counted positions along the tiles' edges twice or not at all)
     for k in ("trees", "planting_positions", "missing_trees", "suppressed_trees",

@@ -385,15 +385,17 @@ def test_cli_runs_a_folder_in_tiles(split_stand, tmp_path):
     assert int(summ.trees[0]) == r["trees"] and summ.buffer[0] >= 20
     # the quick look and the TreeX CSV of a folder, as of one file (issue 22)
     assert main(["trees", str(d), str(tmp_path / "p.gpkg"), "-png", str(tmp_path / "q.png"),
-                 "-csv", str(tmp_path / "t.csv"), "-tile_size", "30", "-buffer", "15", "-workers", "1", "-q"]) == 0
+                 "-csv", str(tmp_path / "t.csv"), "-tile_size", "30", "-buffer", "15", "-workers", "1", "-q",
+                 "-lco", "SEPARATOR=COMMA", "-lco", "WRITE_BOM=NO"]) == 0
     from PIL import Image
 
     png = Image.open(tmp_path / "q.png")
     assert f"{r['trees']:,} trees" in png.text["Description"]
     rows = (tmp_path / "t.csv").read_text().splitlines()
-    assert rows[0] == "id,row,col,x,y,height,crown_area" and len(rows) == r["trees"] + 1
+    assert rows[0].startswith("tree_id,row_number,plant_number,x,y,height,") and \
+        len(rows) == r["trees"] + 1
     tops = pyogrio.read_dataframe(tmp_path / "p.gpkg", layer="tree_tops")
-    assert {int(line.split(",")[0]) for line in rows[1:]} == set(tops.tree_id)
+    assert {int(line.split(",")[0].strip('"')) for line in rows[1:]} == set(tops.tree_id)
 
 
 @pytest.mark.realdata

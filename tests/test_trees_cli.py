@@ -118,11 +118,12 @@ def test_trees_from_chm_geotiff_and_treex_csv(tmp_path, data):
     c = tmp_path / "t.csv"
     assert main(["trees", str(f), str(out), "-method", "treex", "-smooth", "gauss3",
                  "-mean_crown_area", "20", "-sd_crown_area", "5", "-max_crown_area", "80",
-                 "-csv", str(c), "-q"]) == 0
+                 "-csv", str(c), "-lco", "SEPARATOR=COMMA", "-lco", "WRITE_BOM=NO", "-q"]) == 0
     tops = gpd.read_file(out, layer="tree_tops")
     assert tops.crs.to_epsg() == 2193 and len(tops) > 20
     rows = list(csv.DictReader(open(c)))
-    assert list(rows[0]) == ["id", "row", "col", "x", "y", "height", "crown_area"]
+    assert list(rows[0])[:6] == ["tree_id", "row_number", "plant_number", "x", "y", "height"]
+    assert list(rows[0])[-2:] == ["chm_row", "chm_col"]
     assert len(rows) == len(tops)
 
 

@@ -31,7 +31,8 @@ from ..io.output import OutputOptions, atomic_output, check_outputs
 from ..io.provenance import raster_tags, repro_meta, repro_report
 from ..progress import SubProgress, as_progress
 from .area import AreaPlan, one_tile_area, plan_area
-from .sinks import GpkgTreeLayers, QuickLook, Tally, TreeLayers, TreesSummary, TreexCsv
+from .sinks import (GpkgTreeLayers, QuickLook, Tally, TreeLayers, TreesSummary, TreesTable,
+                    sidecar)
 from .surfaces import SurfaceOptions, box_surfaces
 from .stands import StandsTally, write_stand_csv
 from .tile import tile_first_tops, tile_trees, warn_sparse_plantation
@@ -175,7 +176,7 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
               surface: SurfaceOptions | None = None, read: ReadOptions | None = None,
               tiling: TilingOptions | None = None, out: OutputOptions | None = None, png=None,
               csv=None, chm_out=None, stands=None, stand_id=None, stand_csv=None,
-              progress=None) -> dict:
+              title=None, progress=None) -> dict:
     """Tree tops, crowns and a stand summary from points or a CHM, into a GeoPackage.
 
     Parameters
@@ -198,6 +199,9 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
         The stands' id field (default: the first of ``stand_id``, ``talhao``, ... present).
     stand_csv : str or Path, optional
         Also write the stands' figures as a CSV table.
+    title : str, optional
+        The quick look's title (default: the input's name and the summary, which then follows
+        on a second line).
 
     Returns
     -------
@@ -217,9 +221,10 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
     area = open_area(input, read)
     check_outputs(outputs, area.files, out.overwrite)
     if stands is not None:
-        from .stands import load_stands
+        from .stands import check_overlap, load_stands
 
         stands = load_stands(stands, area.crs, stand_id)
+        check_overlap(stands, area.extent, area.label())
     with runner_for(area, tiling) as runner:
         prog.update(0.01, "measuring the area")
         plan, ready = plan_area(area, surface, tiling, runner=runner, params=p, keep=True,
@@ -262,11 +267,13 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
                 srows = tally.rows(plan.res, p.spacing)
                 tally.check_cover(srows)
                 if stand_csv:
-                    write_stand_csv(sinks["stand_csv"], srows)
+                    write_stand_csv(sinks["stand_csv"], srows, out.table)
             sinks["layers"].finish(row, p.spacing is not None,
                                    None if srows is None else (srows, stands.geoms))
+        if chm_out:
+            sidecar(chm_out, "chm.qml", out.overwrite, sinks["chm"].max)
         if png:
-            sinks["quicklook"].write(png, _title(row, input), out.overwrite,
+            sinks["quicklook"].write(png, _title(row, input, title), out.overwrite,
                                      stands=None if stands is None else (stands.ids, stands.geoms))
     prog.update(1.0, "done")
     res = _trees_result(output, area, plan, summary, row, p, sinks["layers"], surface)
@@ -291,7 +298,13 @@ def _area_grids(runner, area, p: TreeParams, plan: AreaPlan, surface, stands, pr
     if not found:
         return {"all": None}
     x, y, z = (np.concatenate([np.asarray(r[k]) for r in found]) for k in ("x", "y", "zone"))
-    return fit_stand_grids(x, y, z if stands is not None else None, p.spacing, whole=True)
+    from .positions import add_anchors
+    from .tile import number_regions
+
+    grids = fit_stand_grids(x, y, z if stands is not None else None, p.spacing, whole=True)
+    # where each stand's row and plant numbers start: made once here, for every tile
+    zones = [-1] + ([] if stands is None else list(range(len(stands))))
+    return add_anchors(grids, number_regions(stands, area.extent), plan.res, zones)
 
 
 def _stands_result(stands, rows, tally, stand_csv) -> dict:
@@ -354,7 +367,8 @@ def _trees_sinks(stack, input, output, area, p, plan, surface, out, csv, chm_out
                                                                param="-stand_csv"))
     if csv:
         ctmp = stack.enter_context(atomic_output(csv, out.overwrite, param="-csv"))
-        sinks["csv"] = TreexCsv(ctmp, gspec)
+        sinks["csv"] = TreesTable(ctmp, gspec, None if stands is None else stands.ids,
+                                  out.table)
         stack.callback(sinks["csv"].close)
     if chm_out:
         mtmp = stack.enter_context(atomic_output(chm_out, out.overwrite, param="-chm_out"))
@@ -367,10 +381,11 @@ def _trees_sinks(stack, input, output, area, p, plan, surface, out, csv, chm_out
     return sinks
 
 
-def _title(row: dict, source) -> str:
+def _title(row: dict, source, title=None) -> str:
     from ..report.quicklook import quicklook_title
 
-    return quicklook_title(row, source if not isinstance(source, (list, tuple)) else None)
+    return quicklook_title(row, source if not isinstance(source, (list, tuple)) else None,
+                           title)
 
 
 def _round(v, n):

@@ -78,6 +78,62 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
     return out
 
 
+def lattice_anchor(grid: PlantingGrid, region, res: float) -> tuple:
+    """Where a stand's row and plant numbers start: ``(j0, first)``, the first row of the
+    lattice nodes that lie in ``region`` (a shapely polygon: the stand, or the area's extent)
+    and each row's first node (``first[k]``: row ``j0 + k``; a huge value for a row with
+    none), in :func:`~lidartrees_gis.als.stocking.crew_numbers`'s signed indices. A node lies
+    in the region when the centre of its cell (a grid of ``res`` aligned to multiples of
+    ``res``, as every tile's) does, as a stand's cells are found
+    (:func:`lidartrees_gis.als.stands.zones`). It depends on the lattice and the region only,
+    so every tile of a run numbers a stand's trees alike."""
+    import shapely
+
+    from ..grid import EDGE_EPS
+    from .stocking import row_heading
+
+    s, _ = row_heading(grid)
+    x0, y0, x1, y1 = region.bounds
+    ci, cj = grid.to_lattice(np.array([x0, x0, x1, x1]), np.array([y0, y1, y0, y1]))
+    ia = np.arange(np.floor(ci.min()) - 1, np.ceil(ci.max()) + 2)
+    ja = np.arange(np.floor(cj.min()) - 1, np.ceil(cj.max()) + 2)
+    big = np.iinfo(np.int64).max
+    shapely.prepare(region)
+    rows_j, rows_i = [], []
+    for block in np.array_split(ja, max(1, ja.size * ia.size // 1_000_000 + 1)):
+        ii, jj = np.meshgrid(ia, block)
+        nx, ny = grid.to_map(ii.ravel(), jj.ravel())
+        cx = (np.floor(nx / res + EDGE_EPS) + 0.5) * res
+        cy = (np.floor(ny / res + EDGE_EPS) + 0.5) * res
+        inside = shapely.contains_xy(region, cx, cy)
+        rows_j.append(np.round(s * jj.ravel()[inside]).astype(np.int64))
+        rows_i.append(np.round(s * ii.ravel()[inside]).astype(np.int64))
+    sj, si = np.concatenate(rows_j), np.concatenate(rows_i)
+    if not sj.size:
+        return 0, np.empty(0, np.int64)
+    j0 = int(sj.min())
+    first = np.full(int(sj.max()) - j0 + 1, big, np.int64)
+    np.minimum.at(first, sj - j0, si)
+    return j0, first
+
+
+def add_anchors(grids: dict, regions: dict, res: float, zones=None) -> dict:
+    """Add to ``grids`` (:func:`fit_stand_grids`) where each stand's row and plant numbers
+    start, as ``grids[("anchor", zone)]`` (:func:`lattice_anchor` of the zone's lattice over
+    ``regions[zone]``, the extent's -1 for a zone with no region of its own); ``zones``: those
+    wanted (default: every one of ``grids``). Kept once made: a run in tiles makes them once,
+    with the lattices."""
+    want = [k for k in grids if isinstance(k, int)] if zones is None else zones
+    for k in want:
+        key = ("anchor", int(k))
+        g = grids.get(int(k), grids.get("all"))
+        region = regions.get(int(k), regions.get(-1))
+        if key in grids or g is None or region is None:
+            continue
+        grids[key] = lattice_anchor(g, region, res)
+    return grids
+
+
 def top_zones(top_x, top_y, zone, spec) -> np.ndarray:
     """The stand index (``zone``, per cell of ``spec``) of each top; -1 outside the grid."""
     tx, ty = np.asarray(top_x, float), np.asarray(top_y, float)
@@ -90,7 +146,7 @@ def top_zones(top_x, top_y, zone, spec) -> np.ndarray:
 
 def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: float = 2.0,
                       grid: PlantingGrid | None = None, within=None,
-                      grids: dict | None = None) -> dict:
+                      grids: dict | None = None, regions: dict | None = None) -> dict:
     """:func:`stocking` with a planting lattice fitted per stand.
 
     ``zone``: the stand index of every cell of ``spec`` (-1 outside every stand; see
@@ -104,7 +160,9 @@ def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: flo
     ``zones`` (per zone index: ``expected, stocked, missing, extra, planted_area_ha, azimuth,
     spacing``); ``grid`` and ``spacing`` are those of the zone with the most positions.
     ``grids``: the lattices (:func:`fit_stand_grids`) when already fitted (by default fitted
-    here, on these tops); returned as ``grids``.
+    here, on these tops); returned as ``grids``. ``regions``: ``{zone: polygon}`` (each
+    stand's polygon, and -1: the area's extent) where the stands' row and plant numbers start
+    (:func:`add_anchors`: kept in ``grids``, so that every tile numbers a stand alike).
     """
     tx, ty = np.asarray(top_x, float), np.asarray(top_y, float)
     zoned = zone is not None and bool((np.asarray(zone) >= 0).any())
@@ -115,6 +173,8 @@ def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: flo
     if grids is None:
         grids = fit_stand_grids(tx, ty, top_zone if zoned else None, spacing, grid,
                                 zones=present if zoned else None)
+    if regions:
+        add_anchors(grids, regions, spec.res, present)
     masks = {}
 
     def planted(sp):
@@ -130,7 +190,8 @@ def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: flo
             continue
         sp = (g.row_spacing, g.tree_spacing)
         parts[k] = stocking(tx, ty, a, spec, sp, min_height=min_height, grid=g, within=within,
-                            planted=planted(sp) & (zone == k), own=own if zoned else None)
+                            planted=planted(sp) & (zone == k), own=own if zoned else None,
+                            anchor=grids.get(("anchor", k)))
         parts[k]["spacing"] = sp
     if not parts:
         return {**_empty(tx.size), "grids": grids}

@@ -14,7 +14,7 @@ from ..io.provenance import raster_tags
 from ..progress import SubProgress, as_progress
 from .area import MIN_BUFFER, plan_area
 from .chain import _result, check_failed, kept_tiles, run_tiles, runner_for
-from .sinks import Tally
+from .sinks import Tally, sidecar
 from .surfaces import SurfaceOptions
 from .tile import tile_grid, tile_surfaces
 
@@ -85,6 +85,9 @@ def chm_run(input, output, *, surface: SurfaceOptions | None = None,
                       "tiles": len(plan.tiles), "buffer": plan.buffer}
             for mos in mosaics.values():
                 mos.set_tags(raster_tags("chm", area, params, input))
+    for key, qml in (("chm", "chm.qml"), ("dtm", "dtm_hillshade.qml")):
+        if key in mosaics:  # styled wherever the GeoTIFF is opened
+            sidecar(paths[key], qml, out.overwrite, mosaics[key].max)
     prog.update(1.0, "done")
     return check_failed(runner, {"output": str(output), **_result(area, plan, tally),
                                  "shape": gspec.shape, "dtm": params["dtm"], "chm": surface.chm})

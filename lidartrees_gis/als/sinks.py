@@ -131,9 +131,8 @@ class TreesSummary(Tally):
             az = axial_mean(*zip(*ok)) if ok else np.nan
             row.update(stocking_fields(fitted_spacing(params.spacing, self.spacings), az,
                                        self.stock, tops=n))
-            # how row_number and plant_number count (tiled runs: each tile's own lattice)
-            row["numbering"] = self.numbering + (" (each tile counts its own)"
-                                                 if len(plan.tiles) > 1 else "")
+            # how row_number and plant_number count: per stand, the same in every tiling
+            row["numbering"] = self.numbering
         return row
 
 
@@ -170,7 +169,8 @@ def stand_names(index, stand_ids) -> np.ndarray:
 def gap_arrays(st: dict, res: float, tile, stand_ids=None) -> dict:
     """The empty planting positions of one tile: ids from the position's cell in the global
     grid (as tree_id), row and plant numbers as a crew counts them
-    (:func:`lidartrees_gis.als.stocking.crew_numbers`, on the tile's own lattice) and, with
+    (:func:`lidartrees_gis.als.stocking.crew_numbers`, per stand: the same in every tiling)
+    and, with
     stands, the stand's id."""
     gx, gy = np.asarray(st["gaps_x"], float), np.asarray(st["gaps_y"], float)
     out = {"gap_id": tree_ids(gx, gy, res),
@@ -376,24 +376,40 @@ class GpkgTreeLayers(TreeLayers):
         embed_styles(self.path, {self.names[k]: qml for k, qml in LAYER_STYLES.items()})
 
 
-class TreexCsv:
-    """The trees in TreeX's table layout (``id, row, col, x, y, height, crown_area``): ``id``
-    is the GeoPackage's ``tree_id``; ``row, col`` the top's cell in the area's grid."""
+#: the trees table of ``-csv``: the tree's id (text: a spreadsheet keeps its 16 digits),
+#: stand, planting row and plant (plantation mode; 0 for none), position and sizes, and the
+#: top's cell in the area's CHM grid (``chm_row``, ``chm_col``)
+TREE_TABLE = ("tree_id", "stand_id", "row_number", "plant_number", "x", "y", "height",
+              "crown_diameter", "crown_area", "suppressed", "chm_row", "chm_col")
+#: decimals of the tables' numbers: cm for positions, heights and diameters, dm² for areas
+TREE_DECIMALS = {"x": 2, "y": 2, "height": 2, "crown_diameter": 2, "crown_area": 2}
 
-    def __init__(self, path, spec):
-        self.fh = open(path, "w", encoding="utf-8")
-        self.spec = spec
-        self.fh.write("id,row,col,x,y,height,crown_area\n")
+
+class TreesTable:
+    """The trees as a table for people (``-csv``, see :data:`TREE_TABLE`), in the dialect of
+    ``options`` (:class:`lidartrees_gis.io.tables.TableOptions`: the locale's by default), or
+    a workbook when the name ends in ``.xlsx``."""
+
+    def __init__(self, path, spec, stand_ids=None, options=None):
+        from ..io.tables import TableWriter
+
+        self.spec, self.stand_ids = spec, stand_ids
+        cols = [c for c in TREE_TABLE if c != "stand_id" or stand_ids is not None]
+        self.w = TableWriter(path, cols, TREE_DECIMALS, ("tree_id", "stand_id"), options,
+                             name="trees")
 
     def add(self, r: dict) -> None:
         t = tree_arrays(r)
         rows, cols = self.spec.cell_index(t["x"], t["y"])
-        for i in range(len(t["tree_id"])):
-            self.fh.write(f"{t['tree_id'][i]},{rows[i]},{cols[i]},{t['x'][i]:.3f},"
-                          f"{t['y'][i]:.3f},{t['height'][i]:.3f},{t['crown_area'][i]:.4f}\n")
+        t["chm_row"], t["chm_col"] = rows, cols
+        if self.stand_ids is not None:
+            t["stand_id"] = stand_names(t["stand"], self.stand_ids)
+        names = self.w.columns
+        for vals in zip(*(t[c].tolist() for c in names)):
+            self.w.write(vals)
 
     def close(self) -> None:
-        self.fh.close()
+        self.w.close()
 
 
 class QuickLook:
@@ -410,7 +426,7 @@ class QuickLook:
                                                              crs=spec.crs)
         self.chm = np.full(self.spec.shape, np.nan)
         self.crowns, self.x, self.y, self.gx, self.gy = [], [], [], [], []
-        self.ux, self.uy = [], []
+        self.ux, self.uy, self.sx, self.sy = [], [], [], []
 
     def add(self, r: dict) -> None:
         a = np.asarray(r["chm"], np.float64)
@@ -418,8 +434,11 @@ class QuickLook:
             self._paste(a, r["chm_left"], r["chm_top"])
         if len(r["tree_id"]):
             self.crowns.append(np.asarray(list(r["wkb"]), dtype=object))
-            self.x.append(np.asarray(r["x"]))
-            self.y.append(np.asarray(r["y"]))
+            sup = np.asarray(r.get("suppressed", np.zeros(len(r["x"]))), int) > 0
+            self.x.append(np.asarray(r["x"])[~sup])
+            self.y.append(np.asarray(r["y"])[~sup])
+            self.sx.append(np.asarray(r["x"])[sup])  # no crown of their own: marked apart
+            self.sy.append(np.asarray(r["y"])[sup])
         st = r.get("stocking")
         if st is not None and len(st["gaps_x"]):
             status = np.asarray(st.get("gaps_status", np.zeros(len(st["gaps_x"]))), int)
@@ -455,5 +474,18 @@ class QuickLook:
         rows, cols = self.spec.cell_index(x, y)
         gaps = (np.concatenate(self.gx), np.concatenate(self.gy)) if self.gx else None
         unc = (np.concatenate(self.ux), np.concatenate(self.uy)) if self.ux else None
+        sup = (np.concatenate(self.sx), np.concatenate(self.sy)) if self.sx else None
         write_quicklook(path, self.chm, labels, rows, cols, spec=self.spec, title=title,
-                        overwrite=overwrite, gaps=gaps, stands=stands, uncertain=unc)
+                        overwrite=overwrite, gaps=gaps, stands=stands, uncertain=unc,
+                        suppressed=sup)
+
+
+def sidecar(path, qml: str, overwrite: bool, top: float = float("nan")):
+    """The QGIS style ``qml`` beside a GeoTIFF output (``chm.tif`` -> ``chm.qml``), the CHM's
+    classes fitted to its highest cell ``top``
+    (:func:`lidartrees_gis.io.styles.write_sidecar_style`)."""
+    from ..io.styles import write_sidecar_style
+    from ..report.classes import height_classes
+
+    limits = height_classes(top) if qml == "chm.qml" and np.isfinite(top) and top > 0 else None
+    return write_sidecar_style(path, qml, overwrite, limits)

@@ -20,6 +20,9 @@ from .stocking import STOCK_COUNTS
 #: the stand id field looked for when ``-stand_id`` is not given (case and accents ignored)
 ID_FIELDS = ("stand_id", "talhao", "id_talhao", "cod_talhao", "codigo_talhao", "stand", "codigo",
              "cod", "id", "name", "nome")
+#: a field whose name holds one of these is taken as the ids (with a warning naming it) when
+#: none of :data:`ID_FIELDS` is present: ``NUM_TALHAO``, ``talhao_num``, ``STAND_NO``
+ID_HINTS = ("talhao", "talhoes", "stand")
 #: dominant height (Assmann): the mean height of the 100 tallest trees per hectare
 DOMINANT_PER_HA = 100
 #: a stand less covered by the points than this (%) is named in a warning: its per-hectare
@@ -48,6 +51,10 @@ class Stands:
         ``PATH[:LAYER]`` or ``GeoDataFrame``.
     reprojection : str
         The operation that brought them into the points' CRS and its accuracy (``""``: none).
+    attributes : tuple of dict
+        Each stand's own attributes as the source gives them (species, clone, planting date,
+        area in the company's register, the id field itself), under their own names (a name
+        the stands layer uses for a figure gets ``_input``: see :func:`user_attributes`).
     """
 
     ids: tuple
@@ -55,6 +62,7 @@ class Stands:
     id_field: str = ""
     source: str = ""
     reprojection: str = ""
+    attributes: tuple = ()
     _tree: object = field(default=None, repr=False, compare=False)
 
     def __len__(self) -> int:
@@ -68,7 +76,7 @@ class Stands:
 
     def __getstate__(self):  # the STRtree is rebuilt where it is used (a Dask worker)
         return {k: getattr(self, k) for k in ("ids", "geoms", "id_field", "source",
-                                              "reprojection")}
+                                              "reprojection", "attributes")}
 
     def __setstate__(self, state):
         for k, v in state.items():
@@ -137,6 +145,19 @@ def _ids(gdf, id_field, name: str) -> tuple:
     else:
         by_plain = {_plain(c): c for c in cols}
         col = next((by_plain[f] for f in ID_FIELDS if f in by_plain), "")
+        if not col:
+            col = next((c for c in cols if any(w in _plain(c) for w in ID_HINTS)), "")
+            listed = ", ".join(map(str, cols))
+            if col:
+                warnings.warn(DataWarning(
+                    f"-stands: {name}: no field named as a stand id ({', '.join(ID_FIELDS)}); "
+                    f"the ids are taken from {col!r} (fields: {listed}); -stand_id FIELD picks "
+                    "another"), stacklevel=3)
+            elif cols:
+                warnings.warn(DataWarning(
+                    f"-stands: {name}: no field named as a stand id ({', '.join(ID_FIELDS)}); "
+                    f"the stands are numbered 1, 2, ... in the file's order (fields: {listed}); "
+                    "-stand_id FIELD takes the ids from one of them"), stacklevel=3)
     if not col:
         return [str(i + 1) for i in range(len(gdf))], ""
     vals = gdf[col].tolist()
@@ -197,7 +218,59 @@ def load_stands(source, crs=None, id_field: str | None = None) -> Stands:
     joined = np.asarray([shapely.union_all(geoms[[j for j, i in enumerate(ids) if i == sid]])
                          for sid in order], dtype=object)
     _warn_overlaps(joined, order, name)
-    return Stands(tuple(order), joined, used, name, repro)
+    first = {sid: j for j, sid in reversed(list(enumerate(ids)))}
+    kept = gdf[keep]
+    drop = [kept.geometry.name] + ([used] if used and used.lower() == "stand_id" else [])
+    attrs = user_attributes(kept.drop(columns=drop).iloc[[first[sid] for sid in order]])
+    return Stands(tuple(order), joined, used, name, repro, tuple(attrs))
+
+
+def _plain_value(v):
+    """A field value as a plain Python value (numpy scalars unwrapped; NaN, NaT: None)."""
+    import pandas as pd
+
+    if v is None:
+        return None
+    try:
+        if pd.isna(v):
+            return None
+    except (TypeError, ValueError):
+        pass
+    return v.item() if isinstance(v, np.generic) else v
+
+
+def user_attributes(frame) -> list:
+    """Each row of ``frame`` (the stands' fields, no geometry) as a dict of plain values under
+    the field's own name; a name the stands layer gives one of its figures (compared without
+    case, as GeoPackage columns are) gets ``_input`` (``area_ha`` -> ``area_ha_input``)."""
+    taken = {f.lower() for f in FIELD_DOCS} | {"fid", "geom", "geometry"}
+    names = {}
+    for c in frame.columns:
+        n = str(c)
+        while n.lower() in taken:
+            n += "_input"
+        taken.add(n.lower())
+        names[c] = n
+    return [{names[c]: _plain_value(v) for c, v in zip(frame.columns, row)}
+            for row in frame.itertuples(index=False, name=None)]
+
+
+def check_overlap(stands: Stands, extent, points: str) -> None:
+    """Raise :class:`InputError` when no stand overlaps the points' ``extent`` (xmin, ymin,
+    xmax, ymax): the wrong file, or stands in another CRS without one said."""
+    import shapely
+
+    box = shapely.box(*extent)
+    if not shapely.intersects(stands.geoms, box).any():
+        sb = shapely.total_bounds(stands.geoms)
+        raise InputError(
+            f"-stands: {stands.source}: no stand overlaps the points: stands extent "
+            f"{_extent(sb)}, points extent {_extent(extent)} ({points}); the wrong file, or "
+            "the stands are in another CRS than the one their file declares")
+
+
+def _extent(b) -> str:
+    return f"({b[0]:.1f}, {b[1]:.1f}, {b[2]:.1f}, {b[3]:.1f})"
 
 
 def _warn_overlaps(geoms, ids, name) -> None:
@@ -323,7 +396,9 @@ class StandsTally:
             flown = self.cells[k, 0] * res * res / 1e4
             per = min(area[k], flown) if flown > 0 else np.nan
             ndom = max(1, int(round(DOMINANT_PER_HA * per))) if per == per else 0
-            row = {"stand_id": sid, "area_ha": round(float(area[k]), 4),
+            row = {"stand_id": sid,
+                   **(self.stands.attributes[k] if self.stands.attributes else {}),
+                   "area_ha": round(float(area[k]), 4),
                    "data_cover_pct": round(min(100.0, 100.0 * flown / area[k]), 2),
                    "trees": n, "trees_per_ha": n / per if per else np.nan,
                    "mean_height": float(h.mean()) if n else np.nan,
@@ -375,7 +450,8 @@ FIELD_DOCS = {
     "canopy_cover_pct": "share of the covered part of the stand under a canopy height at or "
                         "above -min_height",
     "spacing": "planting spacing, rows x trees in a row (m; -spacing)",
-    "row_azimuth": "row direction of the stand's own planting lattice (degrees from north)",
+    "row_azimuth": "row direction of the stand's own planting lattice (degrees from north, an "
+                   "axis in [0, 180), to 0.1°)",
     "planting_positions": "positions of the stand's own planting lattice in its planted area",
     "stocked_positions": "planting positions with a tree top",
     "suppressed_trees": "planting positions without a top where a suppressed tree stands "
@@ -415,15 +491,20 @@ def field_docs(columns) -> dict:
     return out
 
 
-def write_stand_csv(path, rows: list) -> None:
-    """The stands' figures as a CSV table (one row per stand, the stands layer's fields;
-    numbers with a point for decimals, as the GeoPackage)."""
-    import csv
+#: decimals of the stands table's numbers: hectares to the m², heights and diameters to the
+#: cm, per-hectare figures to 0.1, percentages to 0.01, azimuths to 0.1°
+STAND_DECIMALS = {"area_ha": 4, "planted_area_ha": 4, "data_cover_pct": 2,
+                  "canopy_cover_pct": 2, "stocking_pct": 2, "trees_per_ha": 1,
+                  "planted_per_ha": 1, "mean_height": 2, "sd_height": 2, "dominant_height": 2,
+                  "mean_crown_diameter": 2, "row_azimuth": 1}
 
-    fields = list(dict.fromkeys(k for r in rows for k in r))
-    with open(path, "w", newline="", encoding="utf-8") as fh:
-        w = csv.DictWriter(fh, fieldnames=fields)
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: (round(v, 4) if isinstance(v, float) and np.isfinite(v)
-                            else "" if isinstance(v, float) else v) for k, v in r.items()})
+
+def write_stand_csv(path, rows: list, options=None) -> None:
+    """The stands' figures as a table (one row per stand, the stands layer's fields, the
+    user's attributes included): CSV in the dialect of ``options`` (the locale's by default,
+    see :mod:`lidartrees_gis.io.tables`), or a workbook when ``path`` ends in ``.xlsx``.
+    Numbers are rounded to what they mean (:data:`STAND_DECIMALS`); ids are text."""
+    from ..io.tables import write_table
+
+    write_table(path, rows, decimals=STAND_DECIMALS, text=("stand_id",), options=options,
+                name="stands")

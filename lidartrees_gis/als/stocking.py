@@ -173,34 +173,59 @@ def _compass(azimuth: float) -> str:
     return _COMPASS[int(((azimuth % 360.0) + 22.5) // 45.0) % 8]
 
 
-def crew_numbers(grid: PlantingGrid, i, j) -> tuple:
+def row_heading(grid: PlantingGrid) -> tuple:
+    """``(s, run)``: the sign that turns the lattice's ``u`` towards the northern half (or
+    east), and the rows' bearing in [-90, 90]."""
+    a = grid.azimuth % 180.0
+    s = 1.0 if a <= 90.0 else -1.0
+    return s, (a if s > 0 else a - 180.0)
+
+
+def crew_numbers(grid: PlantingGrid, i, j, anchor=None) -> tuple:
     """Row and plant numbers of planting positions ``(i, j)`` as a field crew counts them, and
     the rule in words. The rows are taken to run towards the northern half (bearing in
     (-90, 90], east for east-west rows); row 1 is the outermost row on the left of that
     direction (the west side of north-south rows, the north side of east-west ones) and the
     rows count across the stand; in each row, plant 1 is the row's first position from its
-    southern (western) end, counted along the row with the gaps. Returns ``(row, plant,
-    text)``; in a tiled run, within each tile's lattice."""
+    southern (western) end, counted along the row with the gaps. ``anchor``: the stand's
+    first row and rows' first positions
+    (:func:`lidartrees_gis.als.positions.lattice_anchor`), so that the numbers are the
+    stand's whichever tile counts them; without it, those of the positions given. Returns
+    ``(row, plant, text)``."""
     i = np.asarray(i, float)
     j = np.asarray(j, float)
-    a = grid.azimuth % 180.0
-    s = 1.0 if a <= 90.0 else -1.0  # u towards the northern half (or east)
-    run = a if s > 0 else a - 180.0  # the rows' bearing in [-90, 90]
+    s, run = row_heading(grid)
     ii, jj = np.round(s * i).astype(np.int64), np.round(s * j).astype(np.int64)
     if ii.size == 0:
         return ii, ii, ""
-    row = jj - jj.min() + 1
-    first = np.full(int(row.max()) + 1, np.iinfo(np.int64).max)
-    np.minimum.at(first, row, ii)  # each row's first position
-    plant = ii - first[row] + 1
+    own = np.full(ii.size, True)
+    if anchor is not None and len(anchor[1]):
+        j0, first = anchor
+        k = jj - j0
+        own = (k < 0) | (k >= first.size)
+        own[~own] = first[k[~own]] == np.iinfo(np.int64).max
+        row = k + 1
+        plant = np.zeros(ii.size, np.int64)
+        plant[~own] = ii[~own] - first[k[~own]] + 1
+        own |= plant < 1  # a position before its row's first node: numbered as given
+    else:
+        row = np.zeros(ii.size, np.int64)
+        plant = np.zeros(ii.size, np.int64)
+    if own.any():  # no anchor (or a position outside it): the positions' own first ones
+        r = jj[own] - jj[own].min() + 1
+        first = np.full(int(r.max()) + 1, np.iinfo(np.int64).max)
+        np.minimum.at(first, r, ii[own])  # each row's first position
+        row[own], plant[own] = r, ii[own] - first[r] + 1
     text = (f"row 1 on the {_compass(run - 90.0)} side (rows run {_compass(run + 180.0)} to "
-            f"{_compass(run)}, at {run % 360.0:.1f}°), plant 1 at the {_compass(run + 180.0)} "
-            "end of each row")
+            f"{_compass(run)}, row azimuth {axial_round(grid.azimuth):.1f}°), plant 1 at the "
+            f"{_compass(run + 180.0)} end of each row"
+            + (", within each stand" if anchor is not None else ""))
     return row, plant, text
 
 
 def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
-             grid: PlantingGrid | None = None, within=None, planted=None, own=None) -> dict:
+             grid: PlantingGrid | None = None, within=None, planted=None, own=None,
+             anchor=None) -> dict:
     """Planting positions, missing trees and stocking of a plantation.
 
     Each planting position of the fitted lattice (:func:`fit_planting_grid`) that lies in the
@@ -224,7 +249,8 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
     ``planted``: the planted cells when already known (:func:`stand_mask`, e.g. cut to one
     stand); ``own``: the tops counted as extra when they take no position (default all).
     ``look_x, look_y``: every empty position, inside the box or not (a tree looked for at an
-    empty position beyond a tile's core may stand inside it).
+    empty position beyond a tile's core may stand inside it). ``anchor``: where the stand's
+    numbers start (:func:`lidartrees_gis.als.positions.lattice_anchor`).
     """
     R, C = spacing
     tx = np.asarray(top_x, float)
@@ -251,7 +277,7 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
     node_k, top_k = match_trees(nx, ny, tx, ty, max_dist=0.5 * min(R, C))
     stocked_mask = np.zeros(ii.size, bool)
     stocked_mask[node_k] = True
-    row_no, plant_no, numbering = crew_numbers(g, ii, jj)
+    row_no, plant_no, numbering = crew_numbers(g, ii, jj, anchor)
     tops_row = np.zeros(tx.size, np.int64)
     tops_plant = np.zeros(tx.size, np.int64)
     tops_row[top_k], tops_plant[top_k] = row_no[node_k], plant_no[node_k]
@@ -533,7 +559,7 @@ def stocking_fields(spacing, azimuth: float, st: dict, *, tops: int | None = Non
     low = min(max(point - half, 0.0), point)
     high = max(min(point + half, float(e)), point)
     return {"lattice": "found",
-            "spacing": f"{spacing[0]:g}x{spacing[1]:g}", "row_azimuth": azimuth,
+            "spacing": f"{spacing[0]:g}x{spacing[1]:g}", "row_azimuth": axial_round(azimuth),
             "planting_positions": e, "stocked_positions": st["stocked"],
             "suppressed_trees": sup, "missing_trees": st["missing"],
             "uncertain_positions": st.get("uncertain", 0), "extra_tops": st["extra"],
@@ -542,6 +568,16 @@ def stocking_fields(spacing, azimuth: float, st: dict, *, tops: int | None = Non
             "stocking_pct_low": 100.0 * low / e, "stocking_pct_high": 100.0 * high / e,
             "planted_per_ha": 1e4 / (spacing[0] * spacing[1]),
             "planted_area_ha": st["planted_area_ha"]}
+
+
+def axial_round(azimuth, ndigits: int = 1) -> float:
+    """A row azimuth as every output reports it: an axis (rows at 0° and 180° are the same
+    rows) in [0, 180), rounded to ``ndigits`` (the lattice fit's 0.05° step) before it is
+    brought into the range, so rows at 179.96° read 0.0 as rows at 0.01° do, never 180.0."""
+    a = float(azimuth)
+    if not np.isfinite(a):
+        return float("nan")
+    return round(a % 180.0 + 1e-9, ndigits) % 180.0 + 0.0  # half up: 179.95 reads 0.0
 
 
 def axial_mean(azimuths, weights=None) -> float:

@@ -61,7 +61,7 @@ def core_window(spec: GridSpec, core) -> tuple:
 
 def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=None, *,
                          returns=None, within=None, zone=None, points=None,
-                         grids=None) -> dict:
+                         grids=None, regions=None) -> dict:
     """:func:`lidartrees_gis.als.trees.detect_trees` on a CHM, plus the stocking of the fitted
     planting grid in plantation mode (``params.spacing``).
 
@@ -103,7 +103,7 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
     # the area's, fitted on every tile's tops), and kept while the tops change below
     st = stocking_by_stand(t["x"], t["y"], arr, spec, spacing, zone if given else None,
                            min_height=params.min_height, grid=grid, within=within,
-                           grids=grids if given else None)
+                           grids=grids if given else None, regions=regions if given else None)
     lowest = params.min_height  # the lowest tree plantation mode adds
     if given:  # one tree per planting position, none in the understorey
         result, st, lowest = _one_per_position(result, st, arr, spec, params, heights, zone,
@@ -227,6 +227,7 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
         r = detect_with_stocking(s["chm"], spec, params, heights=s["heights"],
                                  returns=s["returns"], progress=prog, zone=zone,
                                  points=s.get("points_above_ground"), grids=grids,
+                                 regions=number_regions(stands, area.extent),
                                  within=None if whole or params.spacing is None else tile.core)
     else:
         r = detect_trees(s["chm"], spec, params, heights=s["heights"])
@@ -274,6 +275,18 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
                 "outlier_points": s["outlier_points"], "tile": tile.index,
                 "stand_cells": {} if zone is None else stand_cells(zone[r0:r1, c0:c1], core,
                                                                      params.min_height)})
+    return out
+
+
+def number_regions(stands, extent) -> dict:
+    """Where plantation mode numbers each stand's rows and plants from
+    (:func:`lidartrees_gis.als.positions.add_anchors`): each stand's polygon, and the area's
+    extent for the positions outside every stand (or of an area without stands)."""
+    import shapely
+
+    out = {-1: shapely.box(*extent)}
+    if stands is not None:
+        out.update({k: g for k, g in enumerate(stands.geoms)})
     return out
 
 

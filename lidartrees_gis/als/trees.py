@@ -40,7 +40,14 @@ def parse_spacing(value):
         return None if value in (None, "") else (float(value[0]), float(value[1]))
     import re
 
-    m = re.fullmatch(r"\s*([0-9.]+)\s*[xX*,;]\s*([0-9.]+)\s*", str(value))
+    text = str(value)
+    if re.fullmatch(r"\s*[0-9]+,[0-9]+\s*", text):  # 3,2: 3 x 2 m, or 3.2 m in pt-BR
+        raise InputError(f"-spacing {text}: ambiguous (3,2 reads as 3.2 in pt-BR); write the "
+                         "rows and the trees in a row with an x: 3x2 (decimal commas allowed "
+                         "there: 3,5x2,5)")
+    if re.search(r"[xX*×]", text):  # 3,5x2,5: decimal commas beside the x
+        text = text.replace(",", ".")
+    m = re.fullmatch(r"\s*([0-9.]+)\s*[xX*×;]\s*([0-9.]+)\s*", text)
     try:
         if m:
             r, c = float(m.group(1)), float(m.group(2))

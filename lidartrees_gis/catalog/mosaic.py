@@ -45,6 +45,7 @@ class MosaicWriter:
                                 crs=rio_crs(spec.crs), transform=spec.transform,
                                 nodata=self.nodata, **co)
         self.set_tags(tags or {})
+        self.max = float("-inf")  # the highest value written (a style's classes fit to it)
         if description:
             self.ds.set_band_description(1, description)
 
@@ -65,6 +66,8 @@ class MosaicWriter:
             return
         (rr0, rr1, cc0, cc1), (ar, ac) = win
         a = np.asarray(arr)[ar, ac]
+        if a.size and np.isfinite(a).any():
+            self.max = max(self.max, float(np.nanmax(np.where(np.isfinite(a), a, np.nan))))
         if self.dtype.kind == "f":
             a = np.where(np.isnan(a), self.nodata, a)
         self.ds.write(a.astype(self.dtype), 1, window=Window(cc0, rr0, cc1 - cc0, rr1 - rr0))

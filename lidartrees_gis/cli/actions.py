@@ -60,11 +60,13 @@ def _tiling(kw):
 def _out(kw):
     from ..io.output import OutputOptions
     from ..io.raster import parse_kv
+    from ..io.tables import TableOptions, split_table_options
 
+    lco, table = split_table_options(parse_kv(kw.get("layer_options"), "-lco"))
     return OutputOptions(overwrite=bool(kw.get("overwrite")), append=bool(kw.get("append")),
-                         nln=kw.get("nln") or "",
-                         layer_options=parse_kv(kw.get("layer_options"), "-lco") or None,
-                         creation_options=parse_kv(kw.get("creation_options"), "-co") or None)
+                         nln=kw.get("nln") or "", layer_options=lco or None,
+                         creation_options=parse_kv(kw.get("creation_options"), "-co") or None,
+                         table=TableOptions.from_options(table))
 
 
 def _tree_params(kw):
@@ -123,6 +125,7 @@ def trees(input, output, **kw):
 
     r = trees_run(input, output, params=_tree_params(kw), surface=_surface(kw), read=_read(kw),
                   tiling=_tiling(kw), out=_out(kw), png=kw.get("png"), csv=kw.get("csv"),
+                  title=kw.get("title") or None,
                   chm_out=kw.get("chm_out"), stands=kw.get("stands") or None,
                   stand_id=kw.get("stand_id") or None, stand_csv=kw.get("stand_csv") or None,
                   progress=kw.get("progress"))
@@ -190,7 +193,7 @@ def evaluate(detected, reference, **kw):
                          ref_layer=kw.get("ref_layer") or None,
                          max_dist=2.5 if md is None else md, max_dz=5.0 if mz is None else mz,
                          area=kw.get("area") or None, overwrite=bool(kw.get("overwrite")),
-                         progress=kw.get("progress"))
+                         table=_out(kw).table, progress=kw.get("progress"))
 
 
 def demo(outdir=None, **kw):

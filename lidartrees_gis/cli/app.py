@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 import sys
 
 from .._version import __version__
@@ -39,7 +40,17 @@ def _add_param(sp, p):
         sp.add_argument(*flags, dest=p.name, choices=p.choices, default=p.default, help=_help(p))
     else:
         sp.add_argument(*flags, dest=p.name, default=p.default, required=p.required,
-                        metavar=p.name.upper(), help=_help(p))
+                        metavar=p.name.upper(), help=_help(p),
+                        type=_decimal_comma if p.kind in ("float", "res", "int") else None)
+
+
+_COMMA_NUMBER = re.compile(r"\s*[+-]?\d*,\d+\s*")
+
+
+def _decimal_comma(text: str) -> str:
+    """A number given with a decimal comma (``-tr 0,5``, as a pt-BR user writes it) read with
+    a point; any other text as it is (the option's own check names what is wrong)."""
+    return text.replace(",", ".") if _COMMA_NUMBER.fullmatch(str(text)) else text
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -64,15 +75,37 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
-def _tidy(v):
-    """Numbers as a reader wants them: 10 significant digits at most, so binary artefacts
-    (358.28000000000003) go and coordinates keep their millimetres."""
+def _places(key: str, v: float) -> float:
+    """``v`` rounded to what the figure ``key`` means: heights, diameters, distances and
+    biases to the cm, per-hectare figures to 0.1, percentages to 0.01, azimuths to 0.1°,
+    shares and scores to 0.0001; others to 4 decimals (0.1 mm of a coordinate), or 4
+    significant digits below 1."""
+    k = str(key).lower()
+    if k.endswith("per_ha"):
+        return round(v, 1)
+    if "azimuth" in k:  # an axis in [0, 180): 179.96 reads 0.0, not 180.0
+        return round(v % 180.0 + 1e-9, 1) % 180.0
+    if k.endswith("pct"):
+        return round(v, 2)
+    if any(w in k for w in ("height", "bias", "rmse", "diameter", "distance", "dist")):
+        return round(v, 2)
+    if k in ("recall", "precision", "f_score") or k.endswith("share"):
+        return round(v, 4)
+    if v == 0 or abs(v) >= 1:
+        return round(v, 4)
+    return float(f"{v:.4g}")
+
+
+def _tidy(v, key: str = ""):
+    """Numbers as a reader wants them, each rounded to what it means (:func:`_places`), so
+    neither binary artefacts (358.28000000000003) nor ten decimals (0.06278667418) reach the
+    page, and coordinates keep their millimetres."""
     if isinstance(v, float):
-        return float(f"{v:.10g}") if math.isfinite(v) else v
+        return _places(key, v) + 0.0 if math.isfinite(v) else v
     if isinstance(v, dict):
-        return {k: _tidy(x) for k, x in v.items()}
+        return {k: _tidy(x, k) for k, x in v.items()}
     if isinstance(v, (list, tuple)):
-        return type(v)(_tidy(x) for x in v)
+        return type(v)(_tidy(x, key) for x in v)
     return v
 
 
@@ -104,7 +137,7 @@ def _print_result(name, res, as_json):
         return
     if not isinstance(res, dict):
         return
-    res = {k: (v if k == "table" else _tidy(v)) for k, v in res.items()}
+    res = {k: (v if k == "table" else _tidy(v, k)) for k, v in res.items()}
     if name == "info":
         res = {k: v for k, v in res.items() if k != "crs_wkt"}
     for line in result_lines(res):

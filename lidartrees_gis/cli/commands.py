@@ -66,9 +66,14 @@ DELIM = Param("delimiter", "str", "XYZ column delimiter: tab, space, comma, semi
 DECIMAL_COMMA = Param("decimal_comma", "bool", "XYZ numbers use a decimal comma (detected when not "
                       "given)", flag="--decimal-comma", default=None, advanced=True)
 COLUMNS = Param("columns", "str", "XYZ column names in order, e.g. x,y,z,intensity,classification "
-                "(- skips a column); default from the header or x,y,z", flag="--columns", advanced=True)
+                "(- skips a column); default from the header or x,y,z", flag="--columns",
+                aliases=("-columns",), advanced=True)
 SKIP_INVALID = Param("skip_invalid", "bool", "Skip malformed XYZ lines and report how many, instead "
                      "of failing", flag="--skip-invalid", default=False, advanced=True)
+#: the -lco options of the tables for people (lidartrees_gis.io.tables)
+TABLE_LCO = ("CSV table option KEY=VALUE: SEPARATOR=COMMA|SEMICOLON|TAB|SPACE, "
+             "DECIMAL=POINT|COMMA, WRITE_BOM=YES|NO (default: the locale's; pt_BR: semicolon, "
+             "decimal comma, BOM); a table named .xlsx is a workbook")
 RES = Param("res", "res", "Cell size in metres, or auto = sqrt(1/n) from the point density n "
             "(Leite et al.)", flag="-tr", aliases=("--resolution",), default="auto", unit="m")
 FILL = Param("fill", "choice", "Gap filling: mean8 = empty cells take the mean of their filled "
@@ -257,12 +262,16 @@ COMMANDS = {
                default="mean8", advanced=True),
          Param("nln", "str", "Prefix for the layer names (tree_tops, crowns, summary)",
                flag="-nln", advanced=True),
-         Param("layer_options", "kv", "GeoPackage layer creation option KEY=VALUE", flag="-lco",
-               advanced=True),
+         Param("layer_options", "kv", "GeoPackage layer creation option KEY=VALUE; and for the "
+               "-csv and -stand_csv tables " + TABLE_LCO, flag="-lco", advanced=True),
          Param("png", "output", "Also write a quick-look PNG (the CHM in height classes with a "
                "legend, crown outlines, tops, coordinates, scale bar, the summary as title)",
                flag="-png", advanced=True),
-         Param("csv", "output", "Also write a CSV in TreeX's layout", flag="-csv", advanced=True),
+         Param("title", "str", "The quick look's title (default: the input's name and the "
+               "summary)", flag="-title", advanced=True),
+         Param("csv", "output", "Also write the trees as a table (.csv, or .xlsx): tree_id, "
+               "stand_id, row_number, plant_number, x, y, height, crown_diameter, crown_area, "
+               "suppressed, chm_row, chm_col", flag="-csv", advanced=True),
          Param("chm_out", "output", "Also write the CHM GeoTIFF", flag="-chm_out", advanced=True),
          Param("stands", "vector", "Stand (talhão) polygons, PATH or PATH:LAYER of any OGR "
                "polygon source (GeoPackage, shapefile): every tree, crown and gap gets its "
@@ -272,7 +281,8 @@ COMMANDS = {
          Param("stand_id", "str", "The stands' id field (default: the first of stand_id, "
                "talhao, id_talhao, cod_talhao, codigo, id, name, nome present; else 1, 2, ...)",
                flag="-stand_id", advanced=True),
-         Param("stand_csv", "output", "Also write the per-stand inventory as a CSV table",
+         Param("stand_csv", "output", "Also write the per-stand inventory as a table (.csv, or "
+               ".xlsx), the stands' own attributes included",
                flag="-stand_csv", advanced=True),
          *READ_GEO, OVERWRITE,
          Param("append", "bool", "Append to an existing GeoPackage", flag="-append",
@@ -406,6 +416,7 @@ COMMANDS = {
          Param("area", "str", "Where the reference was measured: xmin,ymin,xmax,ymax or a "
                "polygon file (PATH or PATH:LAYER); detections outside it are not false "
                "positives, references outside it are left out", flag="-area"),
+         Param("layer_options", "kv", TABLE_LCO, flag="-lco", advanced=True),
          OVERWRITE), "evaluate", outputs=("report",)),
     "demo": Command(
         "demo", "Demo", "Generate a synthetic eucalyptus stand with known trees and process it",

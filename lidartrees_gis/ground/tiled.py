@@ -259,7 +259,10 @@ def ground_run(input, output, *, dtm_out=None, res="auto", params=None,
               "buffer": buffer if len(area.files) > 1 else None,
               "workers": workers or os.cpu_count()}
     if dtm_out:
+        from ..io.styles import write_sidecar_style
+
         result.update({"dtm": str(dtm_out), "res": dtm_res})
+        write_sidecar_style(dtm_out, "dtm_hillshade.qml", out.overwrite)
     prog.update(1.0, "done")
     if failed:
         result["failed_files"] = [str(e.item) for e in failed]

@@ -66,12 +66,13 @@ def match_column(name, table: dict):
 def read_text_table(path):
     """A CSV or text table as a pandas DataFrame, in whichever dialect it comes: comma,
     semicolon or tab separated, decimal point or comma (pt-BR spreadsheets: ``;`` and ``,``),
-    UTF-8 (with or without BOM) or Windows-1252. Raises ValueError when it cannot be read."""
+    UTF-8 (with or without BOM), Windows-1252 or Latin-1. Raises ValueError when it cannot be
+    read."""
     import pandas as pd
 
     p = Path(path)
     raw = p.read_bytes()
-    for enc in ("utf-8-sig", "cp1252"):
+    for enc in ("utf-8-sig", "cp1252", "latin-1"):  # latin-1 decodes any byte: the last
         try:
             text = raw.decode(enc)
             break

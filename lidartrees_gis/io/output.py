@@ -103,6 +103,10 @@ class OutputOptions:
         GeoPackage layer creation options (``-lco``).
     creation_options : dict, optional
         GeoTIFF creation options (``-co``).
+    table : TableOptions, optional
+        How the tables for people (``-csv``, ``-stand_csv``) are written: ``-lco``'s
+        ``SEPARATOR``, ``DECIMAL``, ``WRITE_BOM`` over the locale's defaults (None: the
+        locale's; see :mod:`lidartrees_gis.io.tables`).
     """
 
     overwrite: bool = False
@@ -110,6 +114,7 @@ class OutputOptions:
     nln: str = ""
     layer_options: dict | None = None
     creation_options: dict | None = None
+    table: object = None
 
     def __post_init__(self):
         import re

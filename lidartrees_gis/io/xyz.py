@@ -15,7 +15,7 @@ import numpy as np
 from ..errors import InputError, LidarTreesError, ReadError
 from ..progress import as_progress, check_cancel
 from .chunk import PointChunk
-from .names import POINT_COLUMNS, match_column
+from .names import POINT_COLUMNS, match_column, normalise
 
 
 _INT_TOKEN = re.compile(r"^[+-]?[0-9]+$")
@@ -44,20 +44,51 @@ class XYZDialect:
     header: bool
     columns: tuple  # attribute name per column, or None for ignored columns
     thousands: bool = False  # '.' groups thousands (pt-BR: 412.955,63 = 412955.63)
+    encoding: str = "utf-8-sig"  # detected: utf-8-sig (with or without BOM), cp1252, latin-1
 
     def describe(self) -> str:
         d = {None: "whitespace", "\t": "tab", ",": "comma", ";": "semicolon", " ": "space"}.get(
             self.delimiter, repr(self.delimiter))
         cols = ",".join(c or "-" for c in self.columns)
-        return f"delimiter={d} decimal={'comma' if self.decimal_comma else 'point'} header={self.header} columns={cols}"
+        return (f"delimiter={d} decimal={'comma' if self.decimal_comma else 'point'} "
+                f"header={self.header} columns={cols} encoding={self.encoding}")
 
 
-def _open_text(path: Path):
+def _is_gzip(path: Path) -> bool:
     with open(path, "rb") as fh:
-        magic = fh.read(2)
-    if magic == b"\x1f\x8b":
-        return gzip.open(path, "rt", encoding="utf-8-sig", errors="replace", newline=None)
-    return open(path, "r", encoding="utf-8-sig", errors="replace", newline=None)  # BOM dropped
+        return fh.read(2) == b"\x1f\x8b"
+
+
+def detect_encoding(path, sample_bytes: int = 1 << 16) -> str:
+    """The text encoding of a (possibly gzip-compressed) text file, from its first bytes:
+    ``utf-8-sig`` (UTF-8 with or without a BOM, and plain ASCII), else ``cp1252`` (Windows
+    exports: ``Elevação`` as one byte per letter), else ``latin-1`` (bytes cp1252 leaves
+    undefined). A UTF-8 character cut at the end of the sample is not held against UTF-8."""
+    path = Path(path)
+    opener = gzip.open if _is_gzip(path) else open
+    with opener(path, "rb") as fh:
+        raw = fh.read(sample_bytes)
+    try:
+        raw.decode("utf-8-sig")
+        return "utf-8-sig"
+    except UnicodeDecodeError as exc:
+        if exc.start >= len(raw) - 3 and len(raw) == sample_bytes:
+            try:
+                raw[:exc.start].decode("utf-8-sig")
+                return "utf-8-sig"
+            except UnicodeDecodeError:
+                pass
+    try:
+        raw.decode("cp1252")
+        return "cp1252"
+    except UnicodeDecodeError:
+        return "latin-1"
+
+
+def _open_text(path: Path, encoding: str = "utf-8-sig"):
+    if _is_gzip(path):
+        return gzip.open(path, "rt", encoding=encoding, errors="replace", newline=None)
+    return open(path, "r", encoding=encoding, errors="replace", newline=None)  # BOM dropped
 
 
 _DELIMS = {"tab": "\t", "\\t": "\t", "\t": "\t", "space": None, "whitespace": None, " ": None,
@@ -140,7 +171,8 @@ def sniff_xyz(path, *, delimiter=None, decimal_comma=None, header=None, columns=
     path = Path(path)
     lines = []
     try:
-        with _open_text(path) as fh:
+        encoding = detect_encoding(path)
+        with _open_text(path, encoding) as fh:
             for line in fh:
                 s = line.strip()
                 if not s or s.startswith("#"):
@@ -196,12 +228,19 @@ def sniff_xyz(path, *, delimiter=None, decimal_comma=None, header=None, columns=
         except InputError:
             cols = parse_columns(["x", "y", "z"] + ["-"] * (ncols - 3))
         ignored = [t for t, c in zip(first, cols) if c is None and t.strip()]
+        lost = [t for t in ignored if _looks_like_classes(t)]
+        if lost and "classification" not in cols:
+            raise InputError(
+                f"{path}: header column {lost[0]!r} looks like the point classes but is not "
+                f"read (encoding {encoding}); without it the terrain would not come from the "
+                "ground class: name the columns with --columns (e.g. x,y,z,intensity,"
+                "classification), '-' skipping a column")
         if ignored:
             from ..errors import DataWarning
 
             warnings.warn(f"{path}: header column(s) not read: {', '.join(ignored)} (known: "
                           "x/este/leste, y/norte, z/cota/altitude, classe/classificação, "
-                          "intensidade, retorno, número de retornos; or give -columns)",
+                          "intensidade, retorno, número de retornos; or give --columns)",
                           DataWarning, stacklevel=2)
     else:
         if ncols < 3:
@@ -210,7 +249,14 @@ def sniff_xyz(path, *, delimiter=None, decimal_comma=None, header=None, columns=
         cols = ("x", "y", "z") + (None,) * (ncols - 3)
     thousands = bool(decimal_comma) and _thousands_columns(path, lines[1:] if header else lines,
                                                            delim, cols)
-    return XYZDialect(delim, bool(decimal_comma), bool(header), cols, thousands)
+    return XYZDialect(delim, bool(decimal_comma), bool(header), cols, thousands, encoding)
+
+
+def _looks_like_classes(name) -> bool:
+    """Whether an unread header name looks like a classification column (``Classe_LAS``,
+    ``Classifica\ufffd\ufffdo`` after a wrong decoding, ``Categoria do ponto``)."""
+    key = normalise(name)
+    return key.startswith(("clas", "categ", "cls")) or key in ("classif", "cl")
 
 
 #: a number written with '.' between groups of three digits and a decimal comma
@@ -246,7 +292,7 @@ def looks_like_points(path, sample: int = 20) -> bool:
             d = sniff_xyz(path)
         idx = [d.columns.index(a) for a in ("x", "y", "z")]
         n = 0
-        with _open_text(Path(path)) as fh:
+        with _open_text(Path(path), d.encoding) as fh:
             for k, line in enumerate(fh):
                 s = line.strip()
                 if not s or s.startswith("#") or (k == 0 and d.header):
@@ -282,7 +328,7 @@ def _xyz_chunks_raw(src, progress):
     names = [d.columns[i] for i in usecols]
     ncol_min = max(usecols) + 1
     size = src.path.stat().st_size or 1
-    with _open_text(src.path) as fh:
+    with _open_text(src.path, d.encoding) as fh:
         raw = fh.buffer if hasattr(fh, "buffer") else None
         lineno = 0
         if d.header:

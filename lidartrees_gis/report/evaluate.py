@@ -260,7 +260,7 @@ def read_area(area, crs_wkt=None):
 
 def evaluate_file(detected, reference, output=None, *, layer=None, ref_layer=None,
                   max_dist: float = MAX_DIST, max_dz: float = MAX_DZ, area=None, overwrite=False,
-                  progress=None) -> dict:
+                  table=None, progress=None) -> dict:
     """``lidartrees evaluate``: match the tree tops of ``detected`` to ``reference`` (Eysn et al.
     2015) and report recall, precision, F and height bias / RMSE for all and dominant trees;
     optionally write the report as JSON (``.json``) or the matched pairs as CSV (``.csv``).
@@ -268,7 +268,9 @@ def evaluate_file(detected, reference, output=None, *, layer=None, ref_layer=Non
     ``area``: where the reference was measured (``xmin,ymin,xmax,ymax`` or a polygon file, see
     :func:`read_area`): detections outside it are not false positives (a 50 m plot inside a
     larger flight), and references outside it are left out. A detection up to ``max_dist``
-    outside may still match a reference tree inside."""
+    outside may still match a reference tree inside. ``table``: how the pairs' table is
+    written (:class:`lidartrees_gis.io.tables.TableOptions`; default the locale's); a name
+    ending in ``.xlsx`` writes a workbook."""
     import json
 
     from ..io.output import atomic_output, check_output
@@ -301,20 +303,33 @@ def evaluate_file(detected, reference, output=None, *, layer=None, ref_layer=Non
         report["stands"] = per_stand(det, ref, d, rr, max_dist)
     if output is not None:
         with atomic_output(output, overwrite) as tmp:
-            if str(output).lower().endswith(".csv"):
-                with open(tmp, "w", encoding="utf-8") as fh:
-                    fh.write("det_index,ref_index,det_x,det_y,ref_x,ref_y,det_height,ref_height,distance\n")
-                    for i, j in zip(d.tolist(), rr.tolist()):
-                        dhv = "" if det["height"] is None else f"{det['height'][i]:.3f}"
-                        rhv = "" if ref["height"] is None else f"{ref['height'][j]:.3f}"
-                        dist = np.hypot(det["x"][i] - ref["x"][j], det["y"][i] - ref["y"][j])
-                        fh.write(f"{i},{j},{det['x'][i]:.3f},{det['y'][i]:.3f},{ref['x'][j]:.3f},"
-                                 f"{ref['y'][j]:.3f},{dhv},{rhv},{dist:.3f}\n")
+            if str(output).lower().endswith((".csv", ".xlsx")):
+                _write_pairs(tmp, det, ref, d, rr, table)
             else:
                 tmp.write_text(json.dumps(report, indent=2, default=float))
         report["output"] = str(output)
     report["table"] = format_report(report)
     return report
+
+
+#: the matched pairs' table (``evaluate -o pairs.csv``) and its numbers' decimals (cm)
+PAIR_COLUMNS = ("det_index", "ref_index", "det_x", "det_y", "ref_x", "ref_y", "det_height",
+                "ref_height", "distance")
+
+
+def _write_pairs(path, det, ref, d, rr, table) -> None:
+    from ..io.tables import write_table
+
+    def h(t, k):
+        return None if t["height"] is None else float(t["height"][k])
+
+    rows = ({"det_index": i, "ref_index": j, "det_x": float(det["x"][i]),
+             "det_y": float(det["y"][i]), "ref_x": float(ref["x"][j]), "ref_y": float(ref["y"][j]),
+             "det_height": h(det, i), "ref_height": h(ref, j),
+             "distance": float(np.hypot(det["x"][i] - ref["x"][j], det["y"][i] - ref["y"][j]))}
+            for i, j in zip(d.tolist(), rr.tolist()))
+    write_table(path, rows, PAIR_COLUMNS, {c: 2 for c in PAIR_COLUMNS[2:]}, options=table,
+                name="pairs")
 
 
 def _within_area(det, ref, area, max_dist, max_dz):

@@ -29,12 +29,13 @@ def _draw_stands(ax, ids, geoms) -> None:
 
 
 def write_quicklook(path, chm, labels, rows, cols, *, spec=None, title=None, overwrite=False,
-                    gaps=None, stands=None, uncertain=None):
+                    gaps=None, stands=None, uncertain=None, suppressed=None):
     """Quick-look PNG: the CHM in colour classes with a legend, crown outlines and tree tops,
-    the missing trees of plantation mode (``gaps``: map x, y) and its positions left to a field
-    check (``uncertain``: map x, y), map coordinates on the axes, a
-    scale bar and a title (e.g. the stand summary). ``stands``: ``(ids, shapely polygons)``
-    drawn as outlines labelled with their ids (map coordinates; needs ``spec``).
+    the missing trees of plantation mode (``gaps``: map x, y), its suppressed trees
+    (``suppressed``: map x, y; no crown of their own) and its positions left to a field check
+    (``uncertain``: map x, y), map coordinates on the axes, a scale bar and a title (e.g. the
+    stand summary). ``stands``: ``(ids, shapely polygons)`` drawn as outlines labelled with
+    their ids, whole (the map reaches them beyond the data; map coordinates, needs ``spec``).
 
     ``spec`` (:class:`GridSpec`) gives the coordinates and scale bar; without it the axes are in
     cells. The title and the summary are also stored as PNG text (Title, Description).
@@ -43,11 +44,40 @@ def write_quicklook(path, chm, labels, rows, cols, *, spec=None, title=None, ove
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.colors import BoundaryNorm
-    from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
-    from skimage.segmentation import find_boundaries
 
     from ..io.output import atomic_output
+
+    fig, counts = quicklook_figure(chm, labels, rows, cols, spec=spec, title=title, gaps=gaps,
+                                   stands=stands, uncertain=uncertain, suppressed=suppressed)
+    title = fig._suptitle.get_text()
+    with atomic_output(path, overwrite, param="-png") as tmp:
+        fig.savefig(tmp, format="png", bbox_inches="tight", pad_inches=0.25,
+                    metadata={"Title": title.split("\n")[0], "Description": title,
+                              "Comment": f"tree tops {counts[0]}; suppressed trees "
+                                         f"{counts[2]}; missing trees {counts[1]}",
+                              "Software": f"lidartrees_gis {__version__}"})
+    plt.close(fig)
+
+
+def _marker_size(n: int, k: float) -> float:
+    """A marker's size among ``n`` tops: the tops' (``k`` = 1) or ``k`` times larger."""
+    return max(4.0 * k, 3000.0 / max(n, 1) ** 0.5 / 10 * k / (1.6 if k > 1 else 1))
+
+
+def quicklook_figure(chm, labels, rows, cols, *, spec=None, title=None, gaps=None, stands=None,
+                     uncertain=None, suppressed=None):
+    """The quick look's matplotlib figure (see :func:`write_quicklook`) and the counts drawn
+    ``(tops, missing, suppressed)``. Everything lies inside the figure: the legend under the
+    map, the colour bar beside it; the lowest tick of each axis is left out, so the two do not
+    meet in the corner."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import BoundaryNorm
+    from matplotlib.ticker import MaxNLocator
+    from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
+    from skimage.segmentation import find_boundaries
 
     a = np.asarray(chm, np.float64)
     h, w = a.shape
@@ -62,10 +92,16 @@ def write_quicklook(path, chm, labels, rows, cols, *, spec=None, title=None, ove
     else:
         left, right, bottom, topy, px = 0.0, float(w), float(h), 0.0, 1.0
     extent = (left, right, bottom, topy)
-    aspect = h / max(w, 1)
+    view = list(extent)
+    if stands is not None and spec is not None and len(stands[0]):
+        import shapely
+
+        sb = shapely.total_bounds(np.asarray(stands[1], dtype=object))
+        view = [min(left, sb[0]), max(right, sb[2]), min(bottom, sb[1]), max(topy, sb[3])]
+    aspect = (view[3] - view[2]) / max(view[1] - view[0], 1e-9)
     fig_w = 9.0
-    fig = plt.figure(figsize=(fig_w, min(max(fig_w * aspect * 0.85 + 1.2, 4.0), 14.0)), dpi=110)
-    ax = fig.add_axes([0.1, 0.08, 0.72, 0.82])
+    fig = plt.figure(figsize=(fig_w, min(max(fig_w * aspect * 0.85 + 1.8, 4.6), 14.0)), dpi=110)
+    ax = fig.add_axes([0.1, 0.17, 0.72, 0.73])
     im = ax.imshow(np.ma.masked_invalid(np.clip(a, 0, None)), cmap=cmap,
                    norm=BoundaryNorm(bounds, cmap.N, clip=True), extent=extent,
                    interpolation="nearest")
@@ -80,25 +116,38 @@ def write_quicklook(path, chm, labels, rows, cols, *, spec=None, title=None, ove
         tx, ty = left + (c + 0.5) * px, topy - (r + 0.5) * px
     else:
         tx, ty = c + 0.5, r + 0.5
-    ax.scatter(tx, ty, s=max(4.0, 3000.0 / max(len(r), 1) ** 0.5 / 10), c="#e31a1c",
+    ax.scatter(tx, ty, s=_marker_size(len(r), 1), c="#e31a1c",
                edgecolors="white", linewidths=0.4, zorder=3, label=f"tree tops ({len(r):,})")
-    n_gaps = 0
+    n_gaps = n_sup = 0
+    if suppressed is not None and len(suppressed[0]):
+        sx, sy = (np.asarray(v, float) for v in suppressed)
+        n_sup = sx.size
+        ax.scatter(sx, sy, s=_marker_size(len(r), 4), marker="o", facecolors="none",
+                   edgecolors="#6a3d9a", linewidths=1.3, zorder=4,
+                   label=f"suppressed trees ({n_sup:,})")
     if gaps is not None and len(gaps[0]):
         gx, gy = (np.asarray(v, float) for v in gaps)  # map coordinates (needs spec)
         n_gaps = gx.size
-        ax.scatter(gx, gy, s=max(16.0, 3000.0 / max(len(r), 1) ** 0.5 / 4), marker="x",
+        ax.scatter(gx, gy, s=_marker_size(len(r), 4), marker="x",
                    c="#000000", linewidths=1.2, zorder=4, label=f"missing trees ({n_gaps:,})")
     if uncertain is not None and len(uncertain[0]):
         ux, uy = (np.asarray(v, float) for v in uncertain)
-        ax.scatter(ux, uy, s=max(16.0, 3000.0 / max(len(r), 1) ** 0.5 / 4), marker="^",
+        ax.scatter(ux, uy, s=_marker_size(len(r), 4), marker="^",
                    facecolors="none", edgecolors="#ff7f00", linewidths=1.2, zorder=4,
                    label=f"uncertain, to check ({ux.size:,})")
     ax.plot([], [], color=(0.85, 0.0, 0.55), label="crowns")
     if stands is not None and spec is not None:
         _draw_stands(ax, *stands)
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 0.2), fontsize=8, frameon=False)
-    ax.set_xlim(left, right)
-    ax.set_ylim(bottom, topy)
+    ax.set_xlim(view[0], view[1])
+    ax.set_ylim(view[2], view[3])
+    ax.set_aspect("equal")
+    ax.apply_aspect()  # the map's box as drawn: the legend goes right under it
+    box = ax.get_position()
+    fig.legend(*ax.get_legend_handles_labels(), loc="upper center", ncol=3, fontsize=8,
+               frameon=False, bbox_to_anchor=(box.x0 + box.width / 2, max(box.y0 - 0.045,
+                                                                         0.075)))
+    for axis in (ax.xaxis, ax.yaxis):  # no two tick labels in the lower left corner
+        axis.set_major_locator(MaxNLocator(nbins=6, prune="lower"))
     ax.ticklabel_format(useOffset=False, style="plain")
     ax.tick_params(labelsize=7)
     for t in ax.get_yticklabels():
@@ -108,7 +157,7 @@ def write_quicklook(path, chm, labels, rows, cols, *, spec=None, title=None, ove
     ax.set_xlabel(f"x ({unit})" + (f"  ·  {crs_label(spec.crs)}" if spec is not None and
                                     spec.crs is not None else ""), fontsize=8)
     ax.set_ylabel(f"y ({unit})", fontsize=8)
-    span = (right - left) * 0.2
+    span = (view[1] - view[0]) * 0.2
     bar = round_length(span) if span > 0 else 1.0
     ax.add_artist(AnchoredSizeBar(ax.transData, bar, f"{bar:g} {unit}", "lower right", pad=0.4,
                                   color="black", frameon=True, size_vertical=max(bar / 40, px)))
@@ -116,19 +165,13 @@ def write_quicklook(path, chm, labels, rows, cols, *, spec=None, title=None, ove
     cb = fig.colorbar(im, cax=cax, ticks=bounds)
     cb.set_label("canopy height (m)", fontsize=8)
     cb.ax.tick_params(labelsize=7)
-    title = title or "lidartrees_gis quick look"
-    fig.suptitle(title, fontsize=9)
-    with atomic_output(path, overwrite, param="-png") as tmp:
-        fig.savefig(tmp, format="png", metadata={"Title": title.split("\n")[0],
-                                                 "Description": title,
-                                                 "Comment": f"tree tops {len(r)}; missing trees "
-                                                            f"{n_gaps}",
-                                                 "Software": f"lidartrees_gis {__version__}"})
-    plt.close(fig)
+    fig.suptitle(title or "lidartrees_gis quick look", fontsize=9)
+    return fig, (len(r), n_gaps, n_sup)
 
 
-def quicklook_title(summary: dict, source) -> str:
-    """The quick-look title: the input's name and the stand summary in one or two lines."""
+def quicklook_title(summary: dict, source, title=None) -> str:
+    """The quick-look title: ``title`` (default the input's name) and the stand summary on a
+    second line."""
     def f(k, fmt):
         v = summary.get(k)
         return None if v is None or (isinstance(v, float) and not np.isfinite(v)) else fmt.format(v)
@@ -137,5 +180,5 @@ def quicklook_title(summary: dict, source) -> str:
              f("mean_height", "mean height {:.1f} m"),
              f("mean_crown_diameter", "crown diameter {:.1f} m"),
              f("stocking_pct", "stocking {:.1f} %")]
-    name = Path(str(source)).name if source else "CHM"
+    name = title or (Path(str(source)).name if source else "CHM")
     return f"{name}\n" + " · ".join(p for p in parts if p)
