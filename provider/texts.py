@@ -68,6 +68,7 @@ LABELS = {
     "min_separation": "Smallest distance between tops",
     "planting": "Planting lattice under the tops (without spacing)",
     "png": "Quick-look PNG", "csv": "Trees CSV", "title": "Quick-look title",
+    "outdir": "Output folder", "lco": "Layer options",
     "vspacing": "Vertical scan spacing", "base": "Base height", "on_error": "When a tile fails",
     "resume": "Resume a killed run", "step": "Region-growing step",
 }

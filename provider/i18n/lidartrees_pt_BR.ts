@@ -352,8 +352,8 @@
       <translation>Suavização</translation>
     </message>
     <message>
-      <source>CHM filter: auto = a Gaussian sized from the crown scale (measured on the CHM, or from -spacing); none; gauss3 (Castro's fine mask); gauss5 (coarse mask); gauss:SIGMA (m); or OP:ELEMENT[:SIZE], OP in erode, dilate, open, close, abefec, fecabe, fecabefec, abefecabe; ELEMENT cross, square, rhombus</source>
-      <translation>Filtro do CHM: auto = uma gaussiana dimensionada pela escala de copa (medida no CHM, ou a partir de -spacing); none; gauss3 (máscara fina de Castro); gauss5 (máscara grossa); gauss:SIGMA (m); ou OP:ELEMENTO[:TAMANHO], OP entre erode, dilate, open, close, abefec, fecabe, fecabefec, abefecabe; ELEMENTO cross, square, rhombus</translation>
+      <source>CHM filter: auto = a Gaussian sized from the crown scale (measured on the CHM, or from -spacing); none; gauss3 (Castro's fine mask); gauss5 (coarse mask); gauss:SIGMA (m); or OP:ELEMENT[:SIZE], OP in erode, dilate, open, close, abefec, fecabe, fecabefec, abefecabe; ELEMENT cross, square, rhombus. Default: auto, but none with -method treex or watershed (their papers work on the raw height model)</source>
+      <translation>Filtro do MDC: auto = um gaussiano dimensionado pela escala das copas (medida no MDC, ou a partir de -spacing); none; gauss3 (máscara fina de Castro); gauss5 (máscara grossa); gauss:SIGMA (m); ou OP:ELEMENTO[:TAMANHO], OP entre erode, dilate, open, close, abefec, fecabe, fecabefec, abefecabe; ELEMENTO cross, square, rhombus. Padrão: auto, mas none com -method treex ou watershed (seus artigos trabalham sobre o modelo de altura bruto)</translation>
     </message>
     <message>
       <source>Minimum tree height</source>
@@ -464,8 +464,12 @@
       <translation>Prefixo dos nomes das camadas (tree_tops, crowns, summary)</translation>
     </message>
     <message>
-      <source>GeoPackage layer creation option KEY=VALUE</source>
-      <translation>Opção de criação da camada GeoPackage CHAVE=VALOR</translation>
+      <source>Layer options</source>
+      <translation>Opções de camada</translation>
+    </message>
+    <message>
+      <source>GeoPackage layer creation option KEY=VALUE; and for the -csv and -stand_csv tables CSV table option KEY=VALUE: SEPARATOR=COMMA|SEMICOLON|TAB|SPACE, DECIMAL=POINT|COMMA, WRITE_BOM=YES|NO (default: the locale's; pt_BR: semicolon, decimal comma, BOM); a table named .xlsx is a workbook</source>
+      <translation>Opção de criação de camada do GeoPackage CHAVE=VALOR; e, para as tabelas -csv e -stand_csv, opção de tabela CSV CHAVE=VALOR: SEPARATOR=COMMA|SEMICOLON|TAB|SPACE, DECIMAL=POINT|COMMA, WRITE_BOM=YES|NO (padrão: o do idioma do sistema; pt_BR: ponto e vírgula, vírgula decimal, BOM); uma tabela com nome .xlsx é uma planilha</translation>
     </message>
     <message>
       <source>Quick-look PNG</source>
@@ -476,12 +480,20 @@
       <translation>Gravar também um PNG de visualização rápida (o CHM em classes de altura com legenda, contornos das copas, topos, coordenadas, barra de escala, o resumo como título)</translation>
     </message>
     <message>
-      <source>Trees CSV (TreeX layout)</source>
-      <translation>CSV das árvores (formato do TreeX)</translation>
+      <source>Quick-look title</source>
+      <translation>Título da visualização rápida</translation>
     </message>
     <message>
-      <source>Also write a CSV in TreeX's layout</source>
-      <translation>Gravar também um CSV no formato do TreeX</translation>
+      <source>The quick look's title (default: the input's name and the summary)</source>
+      <translation>O título da visualização rápida (padrão: o nome da entrada e o resumo)</translation>
+    </message>
+    <message>
+      <source>Trees CSV</source>
+      <translation>Tabela de árvores (CSV)</translation>
+    </message>
+    <message>
+      <source>Also write the trees as a table (.csv, or .xlsx): tree_id, stand_id, row_number, plant_number, x, y, height, crown_diameter, crown_area, suppressed, chm_row, chm_col</source>
+      <translation>Gravar também as árvores como tabela (.csv ou .xlsx): tree_id, stand_id, row_number (linha), plant_number (planta), x, y, height, crown_diameter, crown_area, suppressed, chm_row, chm_col</translation>
     </message>
     <message>
       <source>Also write the CHM GeoTIFF</source>
@@ -508,8 +520,8 @@
       <translation>CSV do inventário por talhão</translation>
     </message>
     <message>
-      <source>Also write the per-stand inventory as a CSV table</source>
-      <translation>Gravar também o inventário por talhão como tabela CSV</translation>
+      <source>Also write the per-stand inventory as a table (.csv, or .xlsx), the stands' own attributes included</source>
+      <translation>Gravar também o inventário por talhão como tabela (.csv ou .xlsx), com os atributos próprios dos talhões</translation>
     </message>
     <message>
       <source>Append to an existing GeoPackage</source>
@@ -680,8 +692,8 @@
       <translation>Pasta de saída</translation>
     </message>
     <message>
-      <source>Output folder (CSV, hillshade PNGs, recommended_dtm.tif)</source>
-      <translation>Pasta de saída (CSV, PNGs de relevo sombreado, recommended_dtm.tif)</translation>
+      <source>Output folder (CSV, hillshade PNGs, recommended_dtm.tif). The CSV ranks the DTMs (1 = most trusted) with a role and why: good (smooth texture, agreeing with the sweep's median DTM), noisy, outlier (smooth but far from that median), incomplete (under 1 ground point per 10 m², or not covering the data)</source>
+      <translation>Pasta de saída (CSV, PNGs de relevo sombreado, recommended_dtm.tif). O CSV ordena os MDTs (1 = o mais confiável) com um papel e o porquê: good (textura lisa, de acordo com o MDT mediano da varredura), noisy (ruidoso), outlier (liso mas longe dessa mediana), incomplete (menos de 1 ponto de solo por 10 m², ou sem cobrir os dados)</translation>
     </message>
     <message>
       <source>g values START:STOP:STEP</source>
@@ -860,6 +872,10 @@
       <translation>Onde a referência foi medida: xmin,ymin,xmax,ymax ou um arquivo de polígonos (CAMINHO ou CAMINHO:CAMADA); detecções fora dela não são falsos positivos, referências fora dela ficam de fora</translation>
     </message>
     <message>
+      <source>CSV table option KEY=VALUE: SEPARATOR=COMMA|SEMICOLON|TAB|SPACE, DECIMAL=POINT|COMMA, WRITE_BOM=YES|NO (default: the locale's; pt_BR: semicolon, decimal comma, BOM); a table named .xlsx is a workbook</source>
+      <translation>Opção de tabela CSV CHAVE=VALOR: SEPARATOR=COMMA|SEMICOLON|TAB|SPACE, DECIMAL=POINT|COMMA, WRITE_BOM=YES|NO (padrão: o do idioma do sistema; pt_BR: ponto e vírgula, vírgula decimal, BOM); uma tabela com nome .xlsx é uma planilha</translation>
+    </message>
+    <message>
       <source>Demo</source>
       <translation>Demonstração</translation>
     </message>
@@ -906,6 +922,30 @@
     <message>
       <source>Queiroz (2017), vertical segmentation of mangrove trees into roots, stem and canopy from the point-density profile.</source>
       <translation>Queiroz (2017), segmentação vertical de árvores de mangue em raízes, tronco e copa pelo perfil de densidade de pontos.</translation>
+    </message>
+    <message>
+      <source>CHM filter: auto = a Gaussian sized from the crown scale (measured on the CHM, or from -spacing); none; gauss3 (Castro's fine mask); gauss5 (coarse mask); gauss:SIGMA (m); or OP:ELEMENT[:SIZE], OP in erode, dilate, open, close, abefec, fecabe, fecabefec, abefecabe; ELEMENT cross, square, rhombus</source>
+      <translation type="vanished">Filtro do CHM: auto = uma gaussiana dimensionada pela escala de copa (medida no CHM, ou a partir de -spacing); none; gauss3 (máscara fina de Castro); gauss5 (máscara grossa); gauss:SIGMA (m); ou OP:ELEMENTO[:TAMANHO], OP entre erode, dilate, open, close, abefec, fecabe, fecabefec, abefecabe; ELEMENTO cross, square, rhombus</translation>
+    </message>
+    <message>
+      <source>GeoPackage layer creation option KEY=VALUE</source>
+      <translation type="vanished">Opção de criação da camada GeoPackage CHAVE=VALOR</translation>
+    </message>
+    <message>
+      <source>Trees CSV (TreeX layout)</source>
+      <translation type="vanished">CSV das árvores (formato do TreeX)</translation>
+    </message>
+    <message>
+      <source>Also write a CSV in TreeX's layout</source>
+      <translation type="vanished">Gravar também um CSV no formato do TreeX</translation>
+    </message>
+    <message>
+      <source>Also write the per-stand inventory as a CSV table</source>
+      <translation type="vanished">Gravar também o inventário por talhão como tabela CSV</translation>
+    </message>
+    <message>
+      <source>Output folder (CSV, hillshade PNGs, recommended_dtm.tif)</source>
+      <translation type="vanished">Pasta de saída (CSV, PNGs de relevo sombreado, recommended_dtm.tif)</translation>
     </message>
   </context>
 </TS>
