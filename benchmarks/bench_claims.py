@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 import tempfile
 import time
@@ -40,7 +41,9 @@ def main(argv=None) -> int:
                 exits["+".join(str(r[0]) for r in sorted(res))] += 1
                 for rc, _, err in res:
                     if rc:
-                        refusals[err[-1].split(": error: ", 1)[-1][:90] if err else ""] += 1
+                        msg = err[-1].split(": error: ", 1)[-1] if err else ""
+                        msg = re.sub(r"\S+\.gpkg", "OUT.gpkg", msg)
+                        refusals[re.sub(r"process \d+ on \S+\)", "process N on HOST)", msg)] += 1
                 fault = check(res, out)
                 if fault:
                     faults.append(f"trial {t}: {fault}")
