@@ -24,24 +24,31 @@ from ..io.store import StoreError, load, save
 FINGERPRINT = "fingerprint.txt"
 
 
-#: bytes hashed at each end of an input file, and the samples between them
-END_BLOCK, SAMPLES, SAMPLE_BLOCK = 64 * 1024, 8, 4096
+#: bytes hashed at each end of a large input file, and the samples between them
+END_BLOCK, SAMPLES, SAMPLE_BLOCK = 64 * 1024, 64, 4096
+#: files up to this size are hashed whole
+WHOLE_BYTES = 64 * 2 ** 20
 
 
 def file_digest(path) -> str:
-    """A digest of a file's content as :func:`run_fingerprint` takes it: its size, its first
-    and last :data:`END_BLOCK` bytes (a LAS/LAZ header, its VLRs, a LAZ chunk table) and
-    :data:`SAMPLES` blocks evenly spread between them, so that a file replaced by another of
-    the same size and time stamp is told apart without reading it all."""
+    """A digest of a file's content as :func:`run_fingerprint` takes it: the whole file up to
+    :data:`WHOLE_BYTES`; for larger ones its size, its first and last :data:`END_BLOCK` bytes
+    (a LAS/LAZ header, its VLRs, a LAZ chunk table, whose chunk sizes change with any point) and
+    :data:`SAMPLES` blocks evenly spread between them, so that a file replaced by another of the
+    same size and time stamp is told apart without reading a large flight twice."""
     h = hashlib.sha256()
     with open(path, "rb") as fh:
         size = os.fstat(fh.fileno()).st_size
         h.update(f"{size};".encode())
-        offsets = [0, max(size - END_BLOCK, 0)]
+        if size <= WHOLE_BYTES:
+            for block in iter(lambda: fh.read(2 ** 20), b""):
+                h.update(block)
+            return h.hexdigest()
+        offsets = [0, size - END_BLOCK]
         offsets += [int(size * (i + 1) / (SAMPLES + 1)) for i in range(SAMPLES)]
-        for at in offsets:
+        for k, at in enumerate(offsets):
             fh.seek(at)
-            h.update(fh.read(END_BLOCK if at in offsets[:2] else SAMPLE_BLOCK))
+            h.update(fh.read(END_BLOCK if k < 2 else SAMPLE_BLOCK))
     return h.hexdigest()
 
 
