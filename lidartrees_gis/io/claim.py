@@ -12,6 +12,7 @@ thread (a chain claims its outputs first, then writes each under :func:`atomic_o
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import socket
 import threading
@@ -49,8 +50,6 @@ def _try_lock(fd) -> bool:
     except (BlockingIOError, PermissionError):
         return False
     except OSError as exc:  # Windows says EACCES/EDEADLOCK when the byte is locked
-        import errno
-
         if exc.errno in (errno.EACCES, errno.EAGAIN, getattr(errno, "EDEADLOCK", -1)):
             return False
         raise
@@ -155,6 +154,11 @@ def claim_output(path, *, wait: bool = False, param: str = "OUTPUT"):
         _release(p, fd)
 
 
+#: the errors of a file system (or an output) that takes no hard links
+_NO_LINKS = {getattr(errno, n) for n in ("EPERM", "ENOTSUP", "EOPNOTSUPP", "ENOSYS", "EMLINK",
+                                         "EXDEV", "EINVAL", "EISDIR") if hasattr(errno, n)}
+
+
 def place(tmp, path, replace: bool, param: str = "OUTPUT") -> None:
     """Move the finished ``tmp`` to ``path``; unless ``replace``, never over an existing file
     (a hard link fails when the name is taken; where there are none, the check and the rename
@@ -167,7 +171,9 @@ def place(tmp, path, replace: bool, param: str = "OUTPUT") -> None:
     except FileExistsError:
         raise OutputExistsError(f"{param}: {path}: output exists (written meanwhile by another "
                                 "run); use -overwrite to replace it") from None
-    except OSError:  # no hard links here (FAT, some shares, a folder output)
+    except OSError as exc:  # no hard links here (FAT, some shares, a folder output)
+        if exc.errno not in _NO_LINKS:  # a full disk, no permission: the error as it is
+            raise
         if os.path.lexists(path):
             raise OutputExistsError(f"{param}: {path}: output exists (written meanwhile by "
                                     "another run); use -overwrite to replace it") from None
