@@ -107,3 +107,22 @@ def test_a_claim_is_reentrant_in_one_thread(tmp_path):
             tmp.write_bytes(b"x")
         assert lock_file(out).exists()
     assert out.exists() and not lock_file(out).exists()
+
+
+def test_ground_refuses_an_output_another_run_writes(inputs, tmp_path, capsys):
+    from lidartrees_gis.cli import main
+
+    out = tmp_path / "classified.las"
+    p = _hold(out, 60)
+    try:
+        capsys.readouterr()
+        assert main(["ground", str(inputs[0]), str(out), "-q"]) == 1
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "is being written by another run" in err[0]
+        assert not out.exists()
+    finally:
+        p.kill()
+        p.wait()
+    assert main(["ground", str(inputs[0]), str(out), "-q"]) == 0
+    assert out.exists() and not lock_file(out).exists()
+    assert main(["ground", str(inputs[0]), str(out), "-q"]) == 1  # exists: no -overwrite
