@@ -185,3 +185,54 @@ def test_resume_after_an_input_is_replaced_by_one_of_the_same_size_and_time(tmp_
         x, y, old = a.read(1), b.read(1), c.read(1)
     assert not np.array_equal(old, y, equal_nan=True)  # the two files' grids differ
     assert np.array_equal(x, y, equal_nan=True)
+
+
+def test_a_large_input_is_told_apart_by_its_ends_and_samples(tmp_path, monkeypatch):
+    from lidartrees_gis.catalog import checkpoint
+
+    monkeypatch.setattr(checkpoint, "WHOLE_BYTES", 1000)  # every file here is "large"
+    rng = np.random.default_rng(1)
+    data = rng.integers(0, 256, 1_000_000, dtype=np.uint8).tobytes()
+    f = tmp_path / "a.laz"
+    f.write_bytes(data)
+    d0 = checkpoint.file_digest(f)
+    assert checkpoint.file_digest(f) == d0
+    for at in (10, len(data) - 10):  # the header, the chunk table
+        f.write_bytes(data[:at] + bytes([data[at] ^ 1]) + data[at + 1:])
+        assert checkpoint.file_digest(f) != d0
+
+
+def test_stored_values_come_back_exactly_and_foreign_ones_are_refused(tmp_path):
+    from lidartrees_gis.grid import GridSpec
+    from lidartrees_gis.io.chunk import PointChunk
+    from lidartrees_gis.io.store import StoreError, load, save
+
+    value = {"n": 3, "h": float("nan"), "s": "talhão", "none": None, "flag": True,
+             "i64": np.int64(7), "f32": np.float32(1.5), 2: "int key", "t": (1, 2.0),
+             "wkb": np.array([b"\x01\x02", None, b""], dtype=object),
+             "names": np.array(["a", "bé"], dtype=object), "x": np.arange(5.0),
+             "spec": GridSpec(1.0, 2.0, 0.5, 3, 4, CRS.from_epsg(29194)),
+             "chunk": PointChunk(np.ones(2), np.zeros(2), np.ones(2), extra={"k": np.ones(2)})}
+    save(tmp_path / "v.npz", value, {"tile": 1})
+    back, meta = load(tmp_path / "v.npz")
+    assert meta == {"tile": 1} and list(back) == list(value)
+    assert back["n"] == 3 and np.isnan(back["h"]) and back["s"] == "talhão" and back[2]
+    assert type(back["i64"]) is np.int64 and type(back["f32"]) is np.float32
+    assert back["t"] == (1, 2.0) and back["wkb"].tolist() == [b"\x01\x02", None, b""]
+    assert back["names"].dtype == object and back["names"].tolist() == ["a", "bé"]
+    assert back["spec"].crs == CRS.from_epsg(29194) and back["spec"].shape == (4, 3)
+    assert np.array_equal(back["chunk"].extra["k"], np.ones(2))
+    with pytest.raises(TypeError):
+        save(tmp_path / "w.npz", {"f": open})  # anything else is refused when written
+    # an array whose dtype is not the one described: refused
+    with np.load(tmp_path / "v.npz") as npz:
+        arrays = {k: npz[k] for k in npz.files}
+    key = next(k for k in arrays if k != "__meta__" and arrays[k].dtype == np.float64)
+    arrays[key] = arrays[key].astype(np.float32)
+    np.savez(tmp_path / "t.npz", **arrays)
+    with pytest.raises(StoreError):
+        load(tmp_path / "t.npz")
+    plant(tmp_path / "p.npz", tmp_path / "ran")
+    with pytest.raises(StoreError):
+        load(tmp_path / "p.npz")
+    assert not (tmp_path / "ran").exists()

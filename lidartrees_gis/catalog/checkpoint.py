@@ -27,7 +27,7 @@ FINGERPRINT = "fingerprint.txt"
 #: bytes hashed at each end of a large input file, and the samples between them
 END_BLOCK, SAMPLES, SAMPLE_BLOCK = 64 * 1024, 64, 4096
 #: files up to this size are hashed whole
-WHOLE_BYTES = 64 * 2 ** 20
+WHOLE_BYTES = 16 * 2 ** 20
 
 
 def file_digest(path) -> str:
