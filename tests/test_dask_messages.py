@@ -30,7 +30,7 @@ def cluster():
     # the client refreshes its cached view often: the race the old watch lost, every second
     with dask.config.set({"distributed.client.scheduler-info-interval": "10ms"}):
         c = LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                         dashboard_address=None, silence_logs=False)
+                         dashboard_address=":0", silence_logs=False)
         client = Client(c)
         client.wait_for_workers(2, timeout=60)
         yield c, client
