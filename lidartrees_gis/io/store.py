@@ -14,7 +14,6 @@ read back exactly.
 """
 from __future__ import annotations
 
-import io
 import json
 import os
 import tempfile
@@ -243,11 +242,16 @@ def load(path, check=None):
     foreign or damaged file), OSError when it cannot be read."""
     _register_core()
     with open(path, "rb") as fh:
-        blob = fh.read()
-    if not blob.startswith(b"PK\x03\x04"):
-        raise StoreError("not a stored result (no .npz archive)")
+        if fh.read(4) != b"PK\x03\x04":
+            raise StoreError("not a stored result (no .npz archive)")
+        fh.seek(0)
+        return _load(fh, check)
+
+
+def _load(fh, check):
+    """:func:`load` of an open file (read member by member, not whole into memory)."""
     try:
-        with np.load(io.BytesIO(blob), allow_pickle=False) as npz:
+        with np.load(fh, allow_pickle=False) as npz:
             if META not in npz.files:
                 raise StoreError("no description")
             desc = json.loads(npz[META].tobytes().decode("utf-8"))
