@@ -61,10 +61,12 @@ def executable_error():
     exe = find_executable()
     if exe is None:
         return tr("LiDAR Trees: the 'lidartrees' command was not found. Install the lidartrees_gis "
-                  "package in its own environment (python3 -m venv ~/.venvs/lidartrees && "
-                  "~/.venvs/lidartrees/bin/pip install /path/to/lidartrees_gis, the package's "
-                  "folder or wheel) and, if it is not on the PATH, set the environment variable "
-                  "LIDARTREES_EXE or the QGIS setting '{setting}' to its path.").format(
+                  "package from its source folder (the one holding pyproject.toml) or its wheel "
+                  "(lidartrees_gis-*.whl) in its own environment (python3 -m venv "
+                  "~/.venvs/lidartrees && ~/.venvs/lidartrees/bin/pip install "
+                  "/path/to/lidartrees_gis; it is not published on PyPI) and, if it is not on "
+                  "the PATH, set the environment variable LIDARTREES_EXE or the QGIS setting "
+                  "'{setting}' to its path.").format(
                       setting=SETTING)
     if exe not in _CHECKED:
         try:

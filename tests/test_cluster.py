@@ -102,7 +102,7 @@ def wait_for_tiles(folder: Path, n: int, proc, timeout=180):
     """Wait until ``n`` tiles are kept in ``folder`` (the run's checkpoint) or the run ends."""
     t0 = time.time()
     while time.time() - t0 < timeout and proc.poll() is None:
-        if folder.exists() and len(list(folder.glob("tile_*.pkl"))) >= n:
+        if folder.exists() and len(list(folder.glob("tile_*.npz"))) >= n:
             return True
         time.sleep(0.05)
     return False
@@ -195,7 +195,7 @@ def test_on_error_skip_writes_the_other_tiles_and_fails_naming_the_missing(clust
     tops = pyogrio.read_dataframe(out, layer="tree_tops", read_geometry=False)
     assert len(tops) > 500 and f"trees: {len(tops)}" in r.stdout
     kept = tmp_path / ".out.gpkg.tiles"
-    assert len(list(kept.glob("tile_*.pkl"))) == total - failed
+    assert len(list(kept.glob("tile_*.npz"))) == total - failed
 
 
 def test_resume_after_the_calling_process_is_killed_gives_the_same_geopackage(reference,
@@ -211,7 +211,7 @@ def test_resume_after_the_calling_process_is_killed_gives_the_same_geopackage(re
     assert wait_for_tiles(kept, total // 2, run)
     run.send_signal(signal.SIGKILL)
     run.wait()
-    done = len(list(kept.glob("tile_*.pkl")))
+    done = len(list(kept.glob("tile_*.npz")))
     assert total // 2 <= done < total and not out.exists()
     other = subprocess.run([*cmd, "-min_height", "3", "-resume"], capture_output=True, text=True)
     assert other.returncode == 1 and "are of another run" in other.stderr

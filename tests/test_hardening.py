@@ -444,6 +444,7 @@ def test_disk_full_is_one_line_and_leaves_no_part_file(small_las, tmp_path, caps
         raise OSError(errno.ENOSPC, "No space left on device")
 
     monkeypatch.setattr(output.os, "replace", full)  # the disk fills at the last step
+    monkeypatch.setattr(output.os, "link", full)  # (a new output is linked into place)
     out = tmp_path / "c.tif"
     assert main(["chm", str(small_las), str(out), "-q"]) == 1
     _one_error_line(capsys, "No space left on device")

@@ -517,16 +517,16 @@ def test_a_runs_processes_share_what_they_decompress(split_stand, tmp_path, monk
     monkeypatch.setenv(SHARED_CACHE_ENV, str(folder))
     monkeypatch.setattr(cat_mod, "READ_CACHE", ReadCache())  # a first worker
     a = TileSource(catalog, catalog.extent).read_all()
-    assert len(opened) == 2 and len(list(folder.glob("*.pkl"))) == 2
+    assert len(opened) == 2 and len(list(folder.glob("*.npz"))) == 2
     monkeypatch.setattr(cat_mod, "READ_CACHE", ReadCache())  # another: nothing of its own
     b = TileSource(catalog, catalog.extent).read_all()
     assert len(opened) == 2  # nothing decompressed again
     assert np.array_equal(a.z, b.z) and np.array_equal(a.classification, b.classification)
     # bounded: the oldest file goes first
-    by_age = sorted(folder.glob("*.pkl"), key=lambda p: p.stat().st_mtime_ns)
+    by_age = sorted(folder.glob("*.npz"), key=lambda p: p.stat().st_mtime_ns)
     shared = SharedReadCache(folder, budget=max(p.stat().st_size for p in by_age) + 1000)
     shared.put(("k",), [], {})
-    assert sorted(p.name for p in folder.glob("*.pkl")) == sorted(
+    assert sorted(p.name for p in folder.glob("*.npz")) == sorted(
         [by_age[1].name, Path(shared._path(("k",))).name])
     # the folder gone: misses, never errors
     gone = SharedReadCache(tmp_path / "nowhere")

@@ -26,7 +26,7 @@ def test_kept_values_go_after_decompressed_files_and_are_taken_once(tmp_path):
         c.put_value(("tile", k), {"chm": big}, keep=True)
     time.sleep(0.01)
     c.put(("file", 2), [big], {})
-    sizes = {p.name: p.stat().st_size for p in tmp_path.glob("*.pkl")}
+    sizes = {p.name: p.stat().st_size for p in tmp_path.glob("*.npz")}
     assert len(sizes) == 4 and sum(n.startswith("keep-") for n in sizes) == 2
     # over budget by one file: the oldest decompressed file goes, not the older kept value
     c.budget = sum(sizes.values()) - 1
@@ -40,7 +40,7 @@ def test_kept_values_go_after_decompressed_files_and_are_taken_once(tmp_path):
     assert c.get(("file", 2)) is None and c.get(("tile", 2), keep=True) is None
     got = c.take(("tile", 1))
     assert np.array_equal(got["chm"], big) and c.take(("tile", 1)) is None
-    assert not [p for p in os.listdir(tmp_path) if p.endswith(".pkl")]
+    assert not [p for p in os.listdir(tmp_path) if p.endswith(".npz")]
 
 
 @pytest.fixture(scope="module")

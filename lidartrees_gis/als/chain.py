@@ -27,7 +27,7 @@ from ..crs import crs_label
 from ..errors import InputError
 from ..grid import GridSpec
 from ..io.options import ReadOptions, filter_report
-from ..io.output import OutputOptions, atomic_output, check_outputs
+from ..io.output import OutputOptions, atomic_output, check_outputs, claim_outputs
 from ..io.provenance import raster_tags, repro_meta, repro_report
 from ..progress import SubProgress, as_progress
 from .area import AreaPlan, one_tile_area, plan_area
@@ -225,7 +225,9 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
 
         stands = load_stands(stands, area.crs, stand_id)
         check_overlap(stands, area.extent, area.label())
-    with runner_for(area, tiling) as runner:
+    # the outputs are this run's until written (a -append waits for another run's to land)
+    with claim_outputs(outputs, out.overwrite, output if out.append else None), \
+            runner_for(area, tiling) as runner:
         prog.update(0.01, "measuring the area")
         plan, ready = plan_area(area, surface, tiling, runner=runner, params=p, keep=True,
                                 progress=SubProgress(prog, 0.02, 0.45))
@@ -357,7 +359,7 @@ def _trees_sinks(stack, input, output, area, p, plan, surface, out, csv, chm_out
     else:
         from ..io.vector import start_from_existing
 
-        tmp = stack.enter_context(atomic_output(output, overwrite=True))
+        tmp = stack.enter_context(atomic_output(output, out.overwrite, append=out.append))
         existing = start_from_existing(Path(output), tmp, out.append)
         sinks["layers"] = GpkgTreeLayers(tmp, area.crs, p.method, out.nln, existing=existing,
                                          metadata=_trees_meta(input, area, p, plan, surface),

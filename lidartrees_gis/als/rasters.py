@@ -9,7 +9,7 @@ from ..catalog.mosaic import MosaicWriter
 from ..errors import InputError
 from ..grid import STATS, GridSpec
 from ..io.options import ReadOptions
-from ..io.output import OutputOptions, atomic_output, check_outputs
+from ..io.output import OutputOptions, atomic_output, check_outputs, claim_outputs
 from ..io.provenance import raster_tags
 from ..progress import SubProgress, as_progress
 from .area import MIN_BUFFER, plan_area
@@ -58,7 +58,7 @@ def chm_run(input, output, *, surface: SurfaceOptions | None = None,
     area = _points(input, read)
     check_outputs(outputs, area.files, out.overwrite)
     tally, dtm_labels = Tally(), set()
-    with runner_for(area, tiling) as runner:
+    with claim_outputs(outputs, out.overwrite), runner_for(area, tiling) as runner:
         prog.update(0.01, "measuring the area")
         plan, ready = plan_area(area, surface, tiling, runner=runner, buffer=MIN_BUFFER,
                                 keep=True, progress=SubProgress(prog, 0.02, 0.45))
@@ -114,7 +114,7 @@ def grid_run(input, output, *, res="auto", stat: str = "max", fill: str = "none"
     check_outputs([(output, "OUTPUT")], area.files, out.overwrite)
     tally = Tally()
     buffer = MIN_BUFFER if surface.fill != "none" else 0.0  # filling looks beyond the tile
-    with runner_for(area, tiling) as runner:
+    with claim_outputs([(output, "OUTPUT")], out.overwrite), runner_for(area, tiling) as runner:
         prog.update(0.01, "measuring the area")
         plan, _ = plan_area(area, surface, tiling, runner=runner, rule="density", buffer=buffer,
                             progress=SubProgress(prog, 0.02, 0.3))

@@ -20,6 +20,7 @@ from ..errors import InputError
 from ..grid import GridAccumulator, GridSpec, LowestPoints, check_resolution, data_footprint, \
     fill_gaps, grid_spec_for
 from ..io.raster import read_raster, resample_to
+from ..io.store import register
 from ..progress import SubProgress, as_progress, check_cancel
 from ..tin import LOCAL_RADIUS, interpolate_tin, tin_surface
 from .chm import CHM_KINDS, canopy_outliers, pitfree_chm, pitfree_edge
@@ -132,6 +133,7 @@ class SurfaceOptions:
         return DtmMethod.parse(self.dtm)
 
 
+@register
 @dataclass(frozen=True)
 class SurfaceStats:
     """What the surfaces of a tile take from its whole area rather than from the tile's own

@@ -75,9 +75,29 @@ def _client(workers, scheduler):
     with dask.config.set({"distributed.worker.profile.enabled": False,
                           "distributed.nanny.pre-spawn-environ": env,
                           "distributed.worker.multiprocessing-method": worker_start_method()}):
+        # the workers' log lines (a task's error with its traceback, a worker dying with the
+        # calling process) stay off the user's terminal: a task's error comes back with its
+        # result and is told in one line (TileError)
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=logging.ERROR)
+                               dashboard_address=None, silence_logs=logging.CRITICAL)
     return Client(cluster), cluster
+
+
+def _quiet_logs():
+    """Silence the log lines of ``distributed`` (and its dashboard's) in this process until the
+    returned stack is closed: no raw ``distributed.client - WARNING`` on the user's terminal; what
+    matters (a lost worker, a failed tile) is told in one line by the runner."""
+    import contextlib
+    import logging
+
+    stack = contextlib.ExitStack()
+    try:
+        from distributed.utils import silence_logging_cmgr
+    except ImportError:  # pragma: no cover - an older distributed
+        return stack
+    for root in ("distributed", "bokeh"):
+        stack.enter_context(silence_logging_cmgr(logging.CRITICAL, root=root))
+    return stack
 
 
 #: a shared read cache's folder: this prefix, the process id, a random part
@@ -207,19 +227,42 @@ def _unreadable(paths) -> list:
 
 
 class WorkerWatch:
-    """Which workers of a cluster left and joined during a run (polled at most once a
-    second), told in one line at the end; and a line when no worker is left."""
+    """Which workers of a cluster left and joined during a run, told in one line at the end;
+    and a line when no worker is left. Both come from the scheduler itself: the workers it
+    holds now (asked at most once a second; the client's own cached view is refreshed in the
+    background without the workers, which once made a run say "no worker is connected" while
+    one was, and count workers lost and joined that never were), and the workers it added and
+    removed during the run (its event log), so a worker killed between two looks counts too."""
 
     def __init__(self, client):
         self.client = client
-        self.start = self.now = set(self._workers())
+        self.start = self.now = self._workers() or set()
+        self.since = self._last_event()
         self.left, self.joined, self._t, self._empty_since = set(), set(), 0.0, None
 
     def _workers(self):
+        """The workers the scheduler holds now, or None when it cannot say (busy, gone)."""
         try:
-            return self.client.scheduler_info(n_workers=-1)["workers"].keys()
+            try:
+                info = self.client.sync(self.client.scheduler.identity, n_workers=-1)
+            except TypeError:  # an older scheduler
+                info = self.client.sync(self.client.scheduler.identity)
+            return set(info["workers"])
         except Exception:  # noqa: BLE001 - the scheduler busy or gone: keep the last view
-            return self.now
+            return None
+
+    def _events(self):
+        """``[(time, action, worker)]`` of the workers the scheduler added and removed, or None."""
+        try:
+            events = self.client.get_events("all")
+        except Exception:  # noqa: BLE001 - no event log (an older scheduler): polls only
+            return None
+        return [(t, m["action"], m.get("worker")) for t, m in events
+                if isinstance(m, dict) and m.get("action") in ("add-worker", "remove-worker")]
+
+    def _last_event(self) -> float:
+        ev = self._events()
+        return max((t for t, _, _ in ev), default=float("-inf")) if ev is not None else None
 
     def poll(self, force=False) -> None:
         import time
@@ -228,7 +271,9 @@ class WorkerWatch:
         if not force and t - self._t < 1.0:
             return
         self._t = t
-        now = set(self._workers())
+        now = self._workers()
+        if now is None:
+            return
         self.left |= self.now - now
         self.joined |= now - self.now
         self.now = now
@@ -239,11 +284,21 @@ class WorkerWatch:
         elif now:
             self._empty_since = None
 
-    def report(self) -> str | None:
+    def changes(self) -> tuple:
+        """``(workers removed, workers added)`` by the scheduler since the start."""
         self.poll(force=True)
-        if not self.left and not self.joined:
+        ev = self._events() if self.since is not None else None
+        if ev is None:
+            return self.left, self.joined
+        ev = [e for e in ev if e[0] > self.since and e[2]]
+        return ({w for _, a, w in ev if a == "remove-worker"},
+                {w for _, a, w in ev if a == "add-worker"})
+
+    def report(self) -> str | None:
+        left, joined = self.changes()
+        if not left and not joined:
             return None
-        return (f"{len(self.left)} worker(s) lost and {len(self.joined)} joined during the run "
+        return (f"{len(left)} worker(s) lost and {len(joined)} joined during the run "
                 f"(started with {len(self.start)}, ended with {len(self.now)}); their tiles ran "
                 "again, the results are complete")
 
@@ -283,6 +338,8 @@ class TileRunner:
         self.client = self.cluster = self.watch = None
         self.failed, self._left_out = [], []
         self._shared = None  # the folder of this run's shared read cache (see share_reads)
+        self._quiet = None  # distributed's log lines silenced while a client runs
+        self._told = set()  # the measurement windows already told as left out
 
     def __enter__(self):
         if self.scheduler:
@@ -292,6 +349,8 @@ class TileRunner:
     def start(self) -> None:
         """Connect to the scheduler or start the local cluster (once)."""
         if self.client is None and (self.workers > 1 or self.scheduler):
+            if self._quiet is None:
+                self._quiet = _quiet_logs()
             self.client, self.cluster = _client(self.workers, self.scheduler)
             if self.scheduler:
                 self.watch = WorkerWatch(self.client)
@@ -323,6 +382,9 @@ class TileRunner:
         if self.cluster is not None:
             self.cluster.close()
         self.client = self.cluster = self.watch = None
+        if self._quiet is not None:
+            self._quiet.close()
+            self._quiet = None
         if self._shared is not None:
             import shutil
 
@@ -362,9 +424,12 @@ class TileRunner:
         self._left_out = []
         yield from self._map(fn, items, args, progress=progress, ordered=ordered, label=label,
                              inner_progress=inner_progress, weights=weights)
-        if self._left_out:
-            _warn(f"{len(self._left_out)} of {len(items)} {label}s were left out of the area's "
-                  f"measurements (-on_error skip): {failures_text(self._left_out, label)}")
+        # told once: the same windows are measured twice (the density, then the surfaces)
+        new = [e for e in self._left_out if (label, tile_name(e.item, label)) not in self._told]
+        self._told |= {(label, tile_name(e.item, label)) for e in new}
+        if new:
+            _warn(f"{len(new)} of {len(items)} {label}s were left out of the area's "
+                  f"measurements (-on_error skip): {failures_text(new, label)}")
 
     def _map(self, fn, items, args=(), *, progress=None, ordered=False, label="tile",
              inner_progress=False, weights=None):

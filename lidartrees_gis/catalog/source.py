@@ -89,7 +89,9 @@ KEEP_PREFIX = "keep-"
 
 class SharedReadCache:
     """Decompressed files shared by the processes of one run on one machine (the calling
-    process and its local Dask workers), as pickled files in a temporary folder: a file whose
+    process and its local Dask workers), as ``.npz`` files in a temporary folder
+    (:mod:`lidartrees_gis.io.store`: arrays with a JSON description, read without pickle and
+    validated, so a file planted there cannot run code and a foreign one is a miss): a file whose
     points two workers need (tiles on either side of the line between their runs of tiles)
     is decompressed once. At most ``budget`` bytes; the oldest files go first. Values kept for
     one later reader (``keep``: plantation mode's tile surfaces between its two passes, taken
@@ -104,16 +106,19 @@ class SharedReadCache:
     def _path(self, key, keep: bool = False) -> str:
         import hashlib
 
-        name = hashlib.sha1(repr(key).encode()).hexdigest() + ".pkl"
+        name = hashlib.sha1(repr(key).encode()).hexdigest() + ".npz"
         return os.path.join(self.folder, KEEP_PREFIX + name if keep else name)
 
     def get(self, key, keep: bool = False):
-        import pickle
+        from ..io.store import StoreError, load
+
+        def check(value, meta):  # the file of this key, holding what put gave
+            if meta.get("key") != repr(key) or (not keep and not _is_chunks(value)):
+                raise StoreError("another key")
 
         try:
-            with open(self._path(key, keep), "rb") as f:
-                return pickle.load(f)
-        except (OSError, EOFError, pickle.UnpicklingError, AttributeError, ValueError):
+            return load(self._path(key, keep), check)[0]
+        except (OSError, StoreError, RecursionError, MemoryError):
             return None
 
     def take(self, key):
@@ -131,30 +136,21 @@ class SharedReadCache:
         self.put_value(key, (chunks, dict(dropped)))
 
     def put_value(self, key, value, keep: bool = False) -> None:
-        """Any picklable ``value`` under ``key``; ``keep``: for one later reader (:meth:`take`),
+        """Any ``value`` :mod:`~lidartrees_gis.io.store` keeps (arrays, point chunks, grids and
+        their containers) under ``key``; ``keep``: for one later reader (:meth:`take`),
         dropped after every other file when the folder is over its budget."""
-        import pickle
-        import tempfile
+        from ..io.store import save
 
-        tmp = None
         try:
-            fd, tmp = tempfile.mkstemp(dir=self.folder, suffix=".part")
-            with os.fdopen(fd, "wb") as f:
-                pickle.dump(value, f, protocol=pickle.HIGHEST_PROTOCOL)
-            os.replace(tmp, self._path(key, keep))  # atomic: a reader sees all of it or none
-            tmp = None
+            save(self._path(key, keep), value, {"key": repr(key)})  # atomic, as a rename
             self._trim()
-        except OSError:
-            if tmp is not None:  # a disk that filled up: no half-written file left
-                try:
-                    os.unlink(tmp)
-                except OSError:
-                    pass
+        except (OSError, TypeError):  # a disk that filled up: no half-written file left
+            pass
 
     def _trim(self) -> None:
         files = []
         for e in os.scandir(self.folder):
-            if e.name.endswith(".pkl"):
+            if e.name.endswith(".npz"):
                 try:
                     st = e.stat()
                 except OSError:
@@ -171,6 +167,12 @@ class SharedReadCache:
             except OSError:
                 pass
             total -= size
+
+
+def _is_chunks(value) -> bool:
+    """A decompressed file as :meth:`SharedReadCache.put` keeps it: ``(chunks, dropped)``."""
+    return isinstance(value, tuple) and len(value) == 2 and isinstance(value[0], list) and \
+        isinstance(value[1], dict)
 
 
 def shared_cache() -> SharedReadCache | None:

@@ -122,14 +122,23 @@ def chm(input, output, **kw):
 
 def trees(input, output, **kw):
     from ..als.chain import trees_run
+    from ..catalog.runner import FailedTiles
 
-    r = trees_run(input, output, params=_tree_params(kw), surface=_surface(kw), read=_read(kw),
-                  tiling=_tiling(kw), out=_out(kw), png=kw.get("png"), csv=kw.get("csv"),
-                  title=kw.get("title") or None,
-                  chm_out=kw.get("chm_out"), stands=kw.get("stands") or None,
-                  stand_id=kw.get("stand_id") or None, stand_csv=kw.get("stand_csv") or None,
-                  progress=kw.get("progress"))
+    try:
+        r = _trees_run(trees_run, input, output, kw)
+    except FailedTiles as exc:  # written without some tiles: its result as a full run's
+        exc.result = {k: v for k, v in (exc.result or {}).items()
+                      if k not in ("tree_ids", "layers")}
+        raise
     return {k: v for k, v in r.items() if k not in ("tree_ids", "layers")}
+
+
+def _trees_run(trees_run, input, output, kw):
+    return trees_run(input, output, params=_tree_params(kw), surface=_surface(kw),
+                     read=_read(kw), tiling=_tiling(kw), out=_out(kw), png=kw.get("png"),
+                     csv=kw.get("csv"), title=kw.get("title") or None,
+                     chm_out=kw.get("chm_out"), stands=kw.get("stands") or None, stand_id=kw.get("stand_id") or None,
+                     stand_csv=kw.get("stand_csv") or None, progress=kw.get("progress"))
 
 
 def compare(input, output, **kw):

@@ -26,7 +26,8 @@ from ..crs import crs_label
 from ..errors import InputError
 from ..grid import GridSpec, auto_resolution, check_resolution
 from ..io.options import ReadOptions
-from ..io.output import OutputOptions, check_output, check_outputs
+from ..io.claim import claim_output, place
+from ..io.output import OutputOptions, check_output, check_outputs, claim_outputs
 from ..io.provenance import raster_tags, repro_meta, repro_report
 from ..progress import SubProgress, as_progress
 from ..tin import interpolate_tin
@@ -216,7 +217,10 @@ def ground_run(input, output, *, dtm_out=None, res="auto", params=None,
     totals = {"points": 0, "ground": 0, "kept_classes": 0}
     done = set()
     dtm_tmp = None
+    claims = contextlib.ExitStack()  # the outputs are this run's until they take their names
     try:
+        claims.enter_context(claim_output(folder, param="OUTPUT") if folder is not None else
+                             claim_outputs([(finals[0], "OUTPUT")], out.overwrite))
         with contextlib.ExitStack() as stack:
             mosaic = None
             if dtm_out:
@@ -247,12 +251,13 @@ def ground_run(input, output, *, dtm_out=None, res="auto", params=None,
                 raise InputError(f"{input}: no file was classified")
         for k in sorted(done):  # every task finished: the classified files take their names
             check_output(finals[k], out.overwrite)
-            os.replace(parts[k], finals[k])
+            place(parts[k], finals[k], out.overwrite)
     finally:
         for k, p in enumerate(parts):
             with contextlib.suppress(OSError):
                 if p.exists():
                     p.unlink()
+        claims.close()
     result = {"output": str(output), "files": len(area.files), **totals,
               "ground_share": totals["ground"] / max(totals["points"], 1),
               "crs": crs_label(area.crs), "reprojection": repro_report(area),

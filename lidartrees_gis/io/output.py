@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import InputError, OutputError, OutputExistsError
+from .claim import claim_output, place
 
 
 def check_output(path, overwrite: bool = False, *, param: str = "OUTPUT") -> Path:
@@ -63,28 +64,50 @@ def check_not_input(output, *inputs, param: str = "OUTPUT") -> None:
 
 
 @contextlib.contextmanager
-def atomic_output(path, overwrite: bool = False, *, param: str = "OUTPUT"):
+def atomic_output(path, overwrite: bool = False, *, param: str = "OUTPUT", append: bool = False):
     """Yield a temporary path beside ``path``; on success rename it to ``path``.
 
-    On any error (or cancel) the temporary file is removed and an existing ``path`` is left
-    untouched.
+    The output is claimed for the whole time (:func:`~lidartrees_gis.io.claim.claim_output`:
+    another run writing it makes this one fail in one line, or wait with ``append``), and the
+    rename never replaces a file unless ``overwrite``, or ``append`` to a file that was there
+    when the claim was taken (the caller copies it first). On any error (or cancel) the
+    temporary file is removed and an existing ``path`` is left untouched.
     """
-    p = check_output(path, overwrite, param=param)
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.stem}.", suffix=f".part{p.suffix}", dir=p.parent or ".")
-    os.close(fd)
-    os.unlink(tmp)  # let the writer create it
-    try:
-        yield Path(tmp)
-        if p.is_dir():
-            shutil.rmtree(p)
-        os.replace(tmp, p)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            if os.path.isdir(tmp):
-                shutil.rmtree(tmp)
-            else:
-                os.unlink(tmp)
-        raise
+    with claim_output(path, wait=append, param=param):
+        p = check_output(path, overwrite or append, param=param)
+        replace = overwrite or (append and p.exists())
+        fd, tmp = tempfile.mkstemp(prefix=f".{p.stem}.", suffix=f".part{p.suffix}",
+                                   dir=p.parent or ".")
+        os.close(fd)
+        os.unlink(tmp)  # let the writer create it
+        try:
+            yield Path(tmp)
+            if replace and p.is_dir():
+                shutil.rmtree(p)
+            place(tmp, p, replace, param)
+        except BaseException:
+            with contextlib.suppress(FileNotFoundError):
+                if os.path.isdir(tmp):
+                    shutil.rmtree(tmp)
+                else:
+                    os.unlink(tmp)
+            raise
+
+
+@contextlib.contextmanager
+def claim_outputs(outputs, overwrite: bool = False, append_to=None):
+    """Claim every output of a run (``(path, param)`` or ``(path, param, overwrite)`` items as
+    for :func:`~lidartrees_gis.io.output.check_outputs`; ``None`` paths skipped), in one order
+    so two runs never wait for each other, each checked again once claimed (another run may
+    have written it meanwhile). ``append_to``: the GeoPackage appended to, waited for."""
+    app = None if append_to is None else Path(append_to).resolve()
+    items = sorted((str(Path(o[0]).resolve()), o) for o in outputs if o[0] is not None)
+    with contextlib.ExitStack() as stack:
+        for key, (path, param, *own) in items:
+            wait = app is not None and Path(key) == app
+            stack.enter_context(claim_output(path, wait=wait, param=param))
+            check_output(path, own[0] if own else overwrite, param=param)
+        yield
 
 
 @dataclass(frozen=True)

@@ -6,6 +6,7 @@ import shutil
 from pathlib import Path
 
 from ..errors import InputError, OutputExistsError
+from .claim import claim_output
 from .output import atomic_output
 from .styles import GPKG_DATASET_OPTIONS, embed_styles
 
@@ -50,6 +51,13 @@ def write_gpkg(path, layers: dict, *, overwrite=False, append=False, layer_optio
         raise InputError(f"OUTPUT: {p}: expected a .gpkg file name")
     if p.exists() and not (overwrite or append):
         raise OutputExistsError(f"{p}: output exists; use -overwrite to replace it or -append")
+    with claim_output(p, wait=append):  # the layers read below are those appended to
+        _write_gpkg(p, layers, overwrite, append, layer_options, metadata, styles)
+
+
+def _write_gpkg(p, layers, overwrite, append, layer_options, metadata, styles) -> None:
+    import pyogrio
+
     try:
         appended = set(_layers(p)) if append and p.exists() else set()
     except Exception:  # noqa: BLE001 - not a GeoPackage: refused below
@@ -64,7 +72,7 @@ def write_gpkg(path, layers: dict, *, overwrite=False, append=False, layer_optio
                         f"{p}: -append: layer {name} already holds {dup:,} of these "
                         f"{len(df):,} trees (same tree_id: the same area twice?); use -overwrite "
                         "to replace the layers, or append other areas only")
-    with atomic_output(p, overwrite=True) as tmp:
+    with atomic_output(p, overwrite, append=append) as tmp:
         existing = start_from_existing(p, tmp, append)
         meta = {k: (v if isinstance(v, str) else json.dumps(v, default=str))
                 for k, v in (metadata or {}).items()}

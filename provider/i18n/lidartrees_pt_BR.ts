@@ -80,8 +80,8 @@
       <translation>{pid}: não foi possível salvar a camada '{name}' para o comando ({error})</translation>
     </message>
     <message>
-      <source>LiDAR Trees: the 'lidartrees' command was not found. Install the lidartrees_gis package in its own environment (python3 -m venv ~/.venvs/lidartrees &amp;&amp; ~/.venvs/lidartrees/bin/pip install /path/to/lidartrees_gis, the package's folder or wheel) and, if it is not on the PATH, set the environment variable LIDARTREES_EXE or the QGIS setting '{setting}' to its path.</source>
-      <translation>LiDAR Trees: o comando 'lidartrees' não foi encontrado. Instale o pacote lidartrees_gis em um ambiente próprio (python3 -m venv ~/.venvs/lidartrees &amp;&amp; ~/.venvs/lidartrees/bin/pip install /caminho/para/lidartrees_gis, a pasta ou o wheel do pacote) e, se ele não estiver no PATH, defina a variável de ambiente LIDARTREES_EXE ou a configuração do QGIS '{setting}' com o caminho dele.</translation>
+      <source>LiDAR Trees: the 'lidartrees' command was not found. Install the lidartrees_gis package from its source folder (the one holding pyproject.toml) or its wheel (lidartrees_gis-*.whl) in its own environment (python3 -m venv ~/.venvs/lidartrees &amp;&amp; ~/.venvs/lidartrees/bin/pip install /path/to/lidartrees_gis; it is not published on PyPI) and, if it is not on the PATH, set the environment variable LIDARTREES_EXE or the QGIS setting '{setting}' to its path.</source>
+      <translation>LiDAR Trees: o comando 'lidartrees' não foi encontrado. Instale o pacote lidartrees_gis a partir da sua pasta de código (a que contém pyproject.toml) ou do seu wheel (lidartrees_gis-*.whl) em um ambiente próprio (python3 -m venv ~/.venvs/lidartrees &amp;&amp; ~/.venvs/lidartrees/bin/pip install /caminho/para/lidartrees_gis; ele não está publicado no PyPI) e, se ele não estiver no PATH, defina a variável de ambiente LIDARTREES_EXE ou a configuração do QGIS '{setting}' com o caminho dele.</translation>
     </message>
     <message>
       <source>LiDAR Trees: '{exe} --version' failed: {error}</source>
@@ -922,6 +922,10 @@
     <message>
       <source>Queiroz (2017), vertical segmentation of mangrove trees into roots, stem and canopy from the point-density profile.</source>
       <translation>Queiroz (2017), segmentação vertical de árvores de mangue em raízes, tronco e copa pelo perfil de densidade de pontos.</translation>
+    </message>
+    <message>
+      <source>LiDAR Trees: the 'lidartrees' command was not found. Install the lidartrees_gis package in its own environment (python3 -m venv ~/.venvs/lidartrees &amp;&amp; ~/.venvs/lidartrees/bin/pip install /path/to/lidartrees_gis, the package's folder or wheel) and, if it is not on the PATH, set the environment variable LIDARTREES_EXE or the QGIS setting '{setting}' to its path.</source>
+      <translation type="vanished">LiDAR Trees: o comando 'lidartrees' não foi encontrado. Instale o pacote lidartrees_gis em um ambiente próprio (python3 -m venv ~/.venvs/lidartrees &amp;&amp; ~/.venvs/lidartrees/bin/pip install /caminho/para/lidartrees_gis, a pasta ou o wheel do pacote) e, se ele não estiver no PATH, defina a variável de ambiente LIDARTREES_EXE ou a configuração do QGIS '{setting}' com o caminho dele.</translation>
     </message>
     <message>
       <source>CHM filter: auto = a Gaussian sized from the crown scale (measured on the CHM, or from -spacing); none; gauss3 (Castro's fine mask); gauss5 (coarse mask); gauss:SIGMA (m); or OP:ELEMENT[:SIZE], OP in erode, dilate, open, close, abefec, fecabe, fecabefec, abefecabe; ELEMENT cross, square, rhombus</source>
