@@ -68,3 +68,45 @@ def test_no_lattice_is_said_in_words(tmp_path):
                            str(tmp_path / "o2.gpkg"), "-spacing", "auto", "-q"],
                           capture_output=True, text=True, cwd=ROOT).stdout
     assert "nan" not in text.lower() and "no planting lattice" in text
+
+
+def _snapped_lattice(rs, ts, az, cell, extra, seed=0):
+    """Tops of a rows x plants lattice at ``az`` snapped to CHM cells of ``cell`` m, with
+    ``extra`` x as many extra tops (double tops on a crown, 0.6-1.2 m from a tree)."""
+    rng = np.random.default_rng(seed)
+    a = np.radians(az)
+    u, v = np.array([np.sin(a), np.cos(a)]), np.array([np.cos(a), -np.sin(a)])
+    i, j = np.meshgrid(np.arange(-35, 35), np.arange(-22, 22))
+    p = i.ravel()[:, None] * ts * u + j.ravel()[:, None] * rs * v
+    p = p[(np.abs(p) < 60).all(axis=1)]
+    p += rng.normal(0, 0.1, p.shape)
+    k = rng.choice(len(p), int(extra * len(p)), replace=False)
+    ang = rng.uniform(0, 2 * np.pi, k.size)
+    r = rng.uniform(0.6, 1.2, k.size)
+    q = np.r_[p, p[k] + np.c_[r * np.sin(ang), r * np.cos(ang)]]
+    q = (np.floor(q / cell) + 0.5) * cell  # the CHM cell's centre
+    return q[:, 0] + 500000.0, q[:, 1] + 7500000.0
+
+
+@pytest.mark.parametrize("rs, ts, az, extra", [(3.0, 2.0, 20.0, 0.6), (3.0, 2.0, 11.0, 0.4),
+                                               (3.0, 1.5, 112.0, 0.6), (3.5, 2.5, 65.0, 0.6)])
+def test_lattice_found_when_the_chm_grid_skews_the_neighbours(rs, ts, az, extra):
+    # tops on 0.5 m cells with 40-60 % more tops beside the trees: the neighbours' directions
+    # peak on directions the grid favours (the first three found no lattice before); the
+    # positions' spectrum still gives the lattice
+    from lidartrees_gis.als.stocking import detect_planting
+
+    x, y = _snapped_lattice(rs, ts, az, 0.5, extra)
+    g = detect_planting(x, y)
+    assert g is not None
+    assert abs(g.row_spacing - rs) <= 0.05 and abs(g.tree_spacing - ts) <= 0.05
+    assert abs((g.azimuth - az + 90.0) % 180.0 - 90.0) <= 1.0
+
+
+def test_random_trees_have_no_spectral_lattice():
+    from lidartrees_gis.als.stocking import _spectral_guess
+
+    rng = np.random.default_rng(11)
+    for n, side in ((300, 60.0), (2000, 200.0), (8000, 400.0)):
+        x, y = rng.uniform(0, side, n), rng.uniform(0, side, n)
+        assert _spectral_guess(x - x.mean(), y - y.mean()) is None

@@ -1,7 +1,7 @@
 """Issue 37's smaller items, each seen by a user: the QGIS plugin's install hint, the CHM's
 style beside the GeoTIFF, ISO 8601 times in the GeoPackages' layer_styles, row azimuths as
 one axis convention, printed figures rounded to what they mean, decimal commas in options."""
-import importlib.util
+import sys
 import re
 import sqlite3
 from pathlib import Path
@@ -28,9 +28,9 @@ def stand_las(tmp_path_factory):
 
 
 def test_plugin_install_hint_names_no_unpublished_package(monkeypatch, tmp_path):
-    spec = importlib.util.spec_from_file_location("_lidartrees_lib", ROOT / "provider" / "_lib.py")
-    lib = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(lib)
+    sys.path.insert(0, str(ROOT))
+    from provider import _lib as lib
+
     monkeypatch.delenv("LIDARTREES_EXE", raising=False)
     monkeypatch.setenv("PATH", str(tmp_path))
     monkeypatch.setenv("HOME", str(tmp_path))

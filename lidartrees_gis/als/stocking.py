@@ -416,6 +416,8 @@ def _spacing_along(p, s0, within: float = 0.15):
     return float(cand[int(np.argmax(r))])
 
 
+#: :func:`detect_planting` recentres its ±12° window of neighbour directions at most this often
+MEAN_SHIFT_STEPS = 20
 #: :func:`_refine_direction` looks this many degrees either side of the neighbour histogram's
 #: row direction
 DIRECTION_REACH = 6.0
@@ -447,6 +449,61 @@ def _refine_direction(dx, dy, a, row0, tree0, n: int = 3000) -> float:
     # CHM grid favours: 3 x 1.5 m tops on 0.3 m cells read 133° for rows at 130°), then fine
     b = best_of(a + np.radians(np.arange(-DIRECTION_REACH, DIRECTION_REACH + 1e-9, 0.5)), a)
     return best_of(b + np.radians(np.arange(-0.5, 0.5001, 0.1)), b)
+
+
+#: :func:`_spectral_guess` looks for planting periods between these lengths (m): rows 2.5-4 m
+#: apart and 1.2-3.5 m within rows, with room either side
+SPECTRAL_PERIODS = (1.0, 4.8)
+#: ... on the projections' histograms of this bin (m) ...
+SPECTRAL_BIN = 0.05
+#: ... and takes a peak for a lattice's when random positions would reach it with this chance
+SPECTRAL_CHANCE = 1e-6
+
+
+def _spectral_guess(dx, dy):
+    """Row direction (radians) and the periods across and along the rows, from the power
+    spectrum of the positions ``dx, dy`` projected on every direction (0.5° steps): the
+    direction whose projection is most periodic within :data:`SPECTRAL_PERIODS` is one axis
+    of the lattice, the direction at right angles to it the other; the rows run along the
+    axis of the shorter period. Unlike the neighbours' directions, it does not lean to the
+    directions a CHM grid favours (3 x 2 m tops on 0.4 m cells: 11° for rows at 20°).
+
+    Both axes must be periodic beyond chance: each spectral peak above the level that the
+    largest of the search's independent cells reaches for positions at random with a chance of
+    one in a million (the mean resultant length of N random phases exceeds ``t`` with chance
+    ``exp(-N t²)``); random trees are given up on here.
+
+    Returns ``(azimuth, row_period, tree_period)`` or None."""
+    lo, hi = 1.0 / SPECTRAL_PERIODS[1], 1.0 / SPECTRAL_PERIODS[0]
+    extent = float(max(np.ptp(dx), np.ptp(dy), 1.0))
+    cells = 360 * max((hi - lo) * extent, 1.0)  # directions x independent frequencies
+    level = float(np.sqrt(np.log(cells / SPECTRAL_CHANCE) / max(dx.size, 1)))
+
+    def spectrum(theta):
+        p = dx * np.sin(theta) + dy * np.cos(theta)
+        n = int(np.ceil((p.max() - p.min()) / SPECTRAL_BIN)) + 1
+        h = np.bincount(((p - p.min()) / SPECTRAL_BIN).astype(np.int64), minlength=n)
+        size = 1 << int(np.ceil(np.log2(max(4 * n, 1024))))  # zero-padded: finer frequencies
+        f = np.fft.rfftfreq(size, SPECTRAL_BIN)
+        band = (f >= lo) & (f <= hi)
+        amp = np.abs(np.fft.rfft(h, size))[band] / p.size
+        k = int(np.argmax(amp))
+        return float(amp[k]), 1.0 / float(f[band][k])
+
+    thetas = np.radians(np.arange(0.0, 180.0, 0.5))
+    found = [spectrum(t) for t in thetas]
+    k1 = int(np.argmax([a for a, _ in found]))
+    t1, p1 = float(thetas[k1]), found[k1][1]
+    # the other axis: at right angles (the lattice is rectangular), within 2°
+    cand = t1 + np.pi / 2 + np.radians(np.arange(-2.0, 2.01, 0.25))
+    other = [spectrum(t) for t in cand]
+    k2 = int(np.argmax([a for a, _ in other]))
+    t2, p2 = float(cand[k2]), other[k2][1]
+    if min(found[k1][0], other[k2][0]) < level:
+        return None
+    if p2 <= p1:  # the rows run along the shorter period
+        return t2 % np.pi, p1, p2
+    return t1 % np.pi, p2, p1
 
 
 def detect_planting(x, y, *, min_trees: int = PLANTING_MIN_TREES,
@@ -481,24 +538,47 @@ def detect_planting(x, y, *, min_trees: int = PLANTING_MIN_TREES,
     # neighbours around it is not
     near = ang[:, :2].ravel()
     in_peak = np.abs((near - a0 + 90.0) % 180.0 - 90.0) < 12.0
-    if x.size > 2 * PRE_FIT_TREES and in_peak.mean() < PLANTING_MIN_SHARE:
-        return None  # the neighbours' directions are spread: no rows (a natural forest)
-    near = near[in_peak]
-    if near.size:
-        a0 = float(np.degrees(np.angle(np.exp(2j * np.radians(near)).mean())) / 2.0) % 180.0
+    # the neighbours' directions are spread: no rows (a natural forest), or rows the CHM grid
+    # or extra tops hide from the neighbours (the positions' spectrum looks)
+    spread = x.size > 2 * PRE_FIT_TREES and in_peak.mean() < PLANTING_MIN_SHARE
+    # ... and the window recentred on that mean until it settles: a peak 8° off (3 x 2 m tops
+    # on 0.3 m cells: 11.5° for rows at 20°) leaves the window's mean biased after one step
+    for _ in range(MEAN_SHIFT_STEPS):
+        sel = near[np.abs((near - a0 + 90.0) % 180.0 - 90.0) < 12.0]
+        if not sel.size:
+            break
+        a1 = float(np.degrees(np.angle(np.exp(2j * np.radians(sel)).mean())) / 2.0) % 180.0
+        settled = abs((a1 - a0 + 90.0) % 180.0 - 90.0) < 0.01
+        a0 = a1
+        if settled:
+            break
     off = np.abs((ang - a0 + 90.0) % 180.0 - 90.0)
     along = np.where(off < 8.0, d[:, 1:], np.inf).min(axis=1)
     across = np.where(off > 70.0, d[:, 1:], np.inf).min(axis=1)
-    if not (np.isfinite(along).any() and np.isfinite(across).any()):
-        return None
-    a = np.radians(a0)
-    tree0 = float(np.median(along[np.isfinite(along)]))
-    row0 = float(np.median(across[np.isfinite(across)]))
-
     # the direction and periods on up to PERIOD_TREES tops (cheap, and a sparse sample of one
     # tree in five reads them wrong); the lattice fit on fewer (its angle search is the cost)
     px, py = _sample(x, y, PERIOD_TREES)
     dx, dy = px - px.mean(), py - py.mean()
+    g = None
+    if not spread and np.isfinite(along).any() and np.isfinite(across).any():
+        g = _detect_from(x, y, dx, dy, np.radians(a0), float(np.median(across[np.isfinite(across)])),
+                         float(np.median(along[np.isfinite(along)])), min_fit)
+    if g is None or g.fit < min_fit:
+        # the neighbours' directions misled (a CHM grid's favoured directions, extra tops
+        # between the trees): the positions' spectrum instead
+        guess = _spectral_guess(dx, dy)
+        if guess is not None:
+            g2 = _detect_from(x, y, dx, dy, *guess, min_fit)
+            if g2 is not None and (g is None or g2.fit > g.fit):
+                g = g2
+    return g if g is not None and g.fit >= min_fit else None
+
+
+def _detect_from(x, y, dx, dy, a, row0, tree0, min_fit):
+    """:func:`detect_planting`'s lattice from a first guess of the row direction ``a``
+    (radians) and the periods ``row0, tree0``: the direction and periods refined on the
+    sample ``dx, dy``, then the lattice fitted; None when a quick fit on
+    :data:`PRE_FIT_TREES` tops already falls below half ``min_fit``."""
     b = _refine_direction(dx, dy, a, row0, tree0)
     tree = _spacing_along(dx * np.sin(b) + dy * np.cos(b), tree0)
     row = _spacing_along(dx * np.cos(b) - dy * np.sin(b), row0)
@@ -516,5 +596,4 @@ def detect_planting(x, y, *, min_trees: int = PLANTING_MIN_TREES,
 
     if x.size > 2 * PRE_FIT_TREES and fit(PRE_FIT_TREES).fit < min_fit / 2:
         return None
-    g = fit(FIT_MAX_TREES)
-    return g if g.fit >= min_fit else None
+    return fit(FIT_MAX_TREES)
