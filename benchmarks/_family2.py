@@ -36,7 +36,7 @@ STATUSES = ("tree", "missing", "suppressed", "replant")
 
 
 def _stand(spacing, azimuth, area_ha=2.0, age=6.0, crown_k=1.15, missing=0.10,
-           suppressed=0.015, replant=0.03, lai=3.2):
+           suppressed=0.015, replant=0.03, lai=3.6):
     return dict(spacing=tuple(spacing), azimuth=float(azimuth), area_ha=area_ha, age=age,
                 crown_k=crown_k, missing=missing, suppressed=suppressed, replant=replant,
                 lai=lai)
@@ -320,8 +320,8 @@ def _trees(x, y, row, plant, status, key, st, rng, terrain, origin_az):
     eb = np.where(sup, 1.0, np.sqrt(q))
     cr = np.clip(0.85 - 0.06 * st["age"], 0.4, 0.8)
     L = np.where(sup, 0.6, cr) * h * rng.uniform(0.9, 1.1, n)
-    p = rng.uniform(0.45, 0.95, n)
-    dm = rng.uniform(0.55, 0.75, n)
+    p = rng.uniform(0.35, 0.7, n)
+    dm = rng.uniform(0.3, 0.5, n)
     b = rng.uniform(0.35, 0.65, n)
     vol = np.pi * np.mean(r0 ** 2 * cr * hm * _crown_volume_factor(p, dm, b))
     lad = st["lai"] * rs * ps / vol * rng.uniform(0.85, 1.15, n)

@@ -24,11 +24,11 @@ from scipy.ndimage import gaussian_filter1d, uniform_filter
 DXY = 0.25          # voxel side in x and y, m
 DH = 0.5            # voxel height, m
 BIN = 0.15          # waveform bin, m
-G_LEAF = 0.35       # projection of leaf area on the beam (steep eucalyptus leaves)
+G_LEAF = 0.5        # projection of leaf area on the beam
 SIGMA_PULSE = 0.30  # system pulse, m (one standard deviation in range)
-DEAD_ZONE = 1.6     # smallest separation of two returns of one pulse, m
-MAX_RETURNS = 5
-THRESHOLD = 0.018   # detection threshold: share of the peak a full-energy hard target gives
+DEAD_ZONE = 2.0     # smallest separation of two returns of one pulse, m
+MAX_RETURNS = 4
+THRESHOLD = 0.03    # detection threshold: share of the peak a full-energy hard target gives
 SUB_RAYS = 3
 
 
@@ -118,7 +118,9 @@ def build_voxels(t, terrain, gx0, gy0, gix0, giy0, nx, ny, nh, clumps, understor
         pv = dx * tr["uy"][j] - dy * tr["ux"][j]
         qq = np.hypot(pa / tr["ea"][j], pv / tr["eb"][j])
         renv = tr["R"][j] * crown_profile(d, tr["p"][j], tr["dm"][j], tr["b"][j]) * lob[j]
-        w = tr["lad"][j] * (1.3 - 0.6 * d) * np.clip((renv - qq) / 0.25 + 0.5, 0.0, 1.0)
+        shell = 0.4 + 1.2 * np.minimum(qq / np.maximum(renv, 1e-6), 1.0) ** 2  # foliage at
+        w = (tr["lad"][j] * (1.6 - 1.2 * d) * shell                          # branch tips
+             * np.clip((renv - qq) / 0.25 + 0.5, 0.0, 1.0))
         nz = (w > 0) & (d >= 0) & (d <= 1)
         flats.append(((iy[j] * nx + ix[j]) * nh + lev)[nz])
         weights.append(w[nz])
