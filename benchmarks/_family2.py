@@ -36,10 +36,12 @@ STATUSES = ("tree", "missing", "suppressed", "replant")
 
 
 def _stand(spacing, azimuth, area_ha=2.0, age=6.0, crown_k=1.15, missing=0.10,
-           suppressed=0.015, replant=0.03, lai=3.6):
+           suppressed=0.015, replant=0.03, lai=3.6, scatter=1.0):
+    """One stand's design; ``scatter`` scales the stems' planting errors, the rows' wander
+    and the stems' lean (0: every top straight above its planting position)."""
     return dict(spacing=tuple(spacing), azimuth=float(azimuth), area_ha=area_ha, age=age,
                 crown_k=crown_k, missing=missing, suppressed=suppressed, replant=replant,
-                lai=lai)
+                lai=lai, scatter=scatter)
 
 
 def _cfg(name, stands, density=8.0, slope=0.05, altitude=None, scanner="sine",
@@ -97,7 +99,18 @@ CONFIGS = [
                                         _stand((3, 3), 75, 1.5, age=4, crown_k=OPEN)],
          slope=0.10, scanner="zigzag", neighbours=True),
 ]
-CONFIG_BY_NAME = {c["name"]: c for c in CONFIGS}
+# controls for the lattice finder: open 3 x 2 m and 3 x 3 m stands, tops straight above their
+# planting positions (scatter 0), and none missing
+DIAGNOSTICS = [
+    _cfg("diag_s3x2_a20_d8_open_scatter0", [_stand((3, 2), 20, 2.5, age=3, crown_k=OPEN,
+                                                   lai=2.2, scatter=0.0)], slope=0.05),
+    _cfg("diag_s3x2_a20_d8_open_scatter0_full", [_stand((3, 2), 20, 2.5, age=3, crown_k=OPEN,
+                                                        lai=2.2, scatter=0.0, missing=0.0)],
+         slope=0.05),
+    _cfg("diag_s3x3_a10_d8_open_scatter0", [_stand((3, 3), 10, 2.5, age=3, crown_k=OPEN,
+                                                   lai=2.2, scatter=0.0)], slope=0.05),
+]
+CONFIG_BY_NAME = {c["name"]: c for c in CONFIGS + DIAGNOSTICS}
 
 
 # ----------------------------------------------------------------------------------- terrain
@@ -288,7 +301,8 @@ def _trees(x, y, row, plant, status, key, st, rng, terrain, origin_az):
     along = plant * ps
     wa = np.array([wander[r][0] * np.sin(2 * np.pi * a / wander[r][1] + wander[r][2])
                    for r, a in zip(row.tolist(), along)])
-    ea_err, ec_err = rng.normal(0, 0.10, n), rng.normal(0, 0.06, n) + wa
+    sc = st.get("scatter", 1.0)
+    ea_err, ec_err = sc * rng.normal(0, 0.10, n), sc * (rng.normal(0, 0.06, n) + wa)
     sx = x + ea_err * u[0] + ec_err * v[0]
     sy = y + ea_err * u[1] + ec_err * v[1]
     h = hm * (1 + np.array([row_eff[r] for r in row.tolist()]) + rng.normal(0, 0.07, n))
@@ -312,7 +326,7 @@ def _trees(x, y, row, plant, status, key, st, rng, terrain, origin_az):
     phi0 = -np.angle(c1)
     lean_a = rng.normal(0, 0.015, n) + 0.03 * np.abs(c1) * np.cos(phi0)
     lean_c = rng.normal(0, 0.012, n) + 0.03 * np.abs(c1) * np.sin(phi0)
-    lean_a, lean_c = np.clip(lean_a, -0.05, 0.05), np.clip(lean_c, -0.05, 0.05)
+    lean_a, lean_c = np.clip(sc * lean_a, -0.05, 0.05), np.clip(sc * lean_c, -0.05, 0.05)
     ax = sx + h * (lean_a * u[0] + lean_c * v[0])
     ay = sy + h * (lean_a * u[1] + lean_c * v[1])
     q = np.clip(np.sqrt(rs / ps), 1.0, 1.35)

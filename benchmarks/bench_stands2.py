@@ -216,8 +216,11 @@ def main(argv=None):
     ap.add_argument("--out", default=str(HERE / "results" / "stands2.json"))
     ap.add_argument("--explicit", action="store_true",
                     help="also run with the true -spacing RxC (files of one design)")
+    ap.add_argument("--diagnostics", action="store_true",
+                    help="run _family2.DIAGNOSTICS (controls) instead of CONFIGS")
     a = ap.parse_args(argv)
-    configs = [c for c in fam.CONFIGS if (not a.configs or c["name"] in a.configs)
+    pool = fam.DIAGNOSTICS if a.diagnostics else fam.CONFIGS
+    configs = [c for c in pool if (not a.configs or c["name"] in a.configs)
                and (a.density is None or c["density"] == a.density)]
     configs.sort(key=lambda c: (c["density"] != 8.0, c["density"]))  # 8 pts/m2 first
     work = Path(a.work)

@@ -114,3 +114,23 @@ def test_writers_roundtrip(scene, tmp_path):
     assert list(gdf["talhao"]) == ["T01", "T02"] and gdf.crs.to_epsg() == 31983
     assert gdf.geometry.area.sum() / 1e4 == pytest.approx(
         sum(s["area_ha"] for s in truth["stands"]), rel=1e-6)
+
+
+@pytest.mark.parametrize("scatter", [0.0, 1.0])
+def test_tops_scatter_around_their_planting_positions(scatter):
+    """Tops stand on their positions with scatter 0; 0.1-0.6 m off (planting error, lean)."""
+    rng = np.random.default_rng(5)
+    st = fam._stand((3, 2), 30, crown_k=fam.CLOSED, scatter=scatter)
+    poly = fam._rect(0.0, 0.0, 80.0, 60.0, 0.3)
+    x, y, i, j = fam._lattice_positions(poly, np.array([0.3, 0.2]), 30.0, 3.0, 2.0)
+    row, plant = i - i.min(), j - j.min()
+    status, key = fam._statuses(row, plant, st, rng)
+    terrain = fam.Terrain.random(rng, 0.0, 0.0, 0.1)
+    t, extra = fam._trees(x, y, row, plant, status, key, st, rng, terrain, 30.0)
+    has = status != "missing"
+    d = np.hypot(extra["top_x"] - x, extra["top_y"] - y)[has]
+    assert t["H"].size == has.sum()
+    if scatter == 0.0:
+        assert d.max() < 1e-9
+    else:
+        assert 0.1 < np.median(d) < 0.6 and d.max() < 1.6
