@@ -103,6 +103,10 @@ def score_stand(st, stands, gaps, tops):
     if ok:
         ds = max(abs(spacing[0] - lat["row_spacing"]), abs(spacing[1] - lat["plant_spacing"]))
         da = abs((az - lat["azimuth"] + 90.0) % 180.0 - 90.0)
+        if lat["row_spacing"] == lat["plant_spacing"]:   # a square design has two row axes
+            da = min(da, abs((az - lat["azimuth"]) % 180.0 - 90.0))
+            ds = min(ds, max(abs(spacing[1] - lat["row_spacing"]),
+                             abs(spacing[0] - lat["plant_spacing"])))
         row["spacing_err_m"], row["azimuth_err_deg"] = round(ds, 3), round(da, 2)
         ok = ds <= 0.05 and da <= 1.0
     row["lattice_ok"] = bool(ok)
@@ -174,14 +178,21 @@ def _run_score(cfg, truth, work, spacing, las, stands_path, timeout, python):
     out, csv = work / f"{name}_{tag}.gpkg", work / f"{name}_{tag}.csv"
     cmd = [python, "-m", "lidartrees_gis.cli", "trees", str(las), str(out), "-spacing", spacing,
            "-stands", str(stands_path), "-stand_csv", str(csv), "-overwrite"]
-    t1 = time.time()
-    try:
-        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout,
-                              cwd=str(HERE.parent), env=dict(os.environ))
-        rc, log = proc.returncode, proc.stdout + proc.stderr
-    except subprocess.TimeoutExpired:
-        rc, log = "timeout", ""
-    run_s = time.time() - t1
+    side = work / f"{name}_{tag}.run.json"
+    if RESCORE and side.exists():
+        with open(side) as f:
+            rc, log, run_s = (lambda d: (d["exit"], d["log"], d["run_s"]))(json.load(f))
+    else:
+        t1 = time.time()
+        try:
+            proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout,
+                                  cwd=str(HERE.parent), env=dict(os.environ))
+            rc, log = proc.returncode, proc.stdout + proc.stderr
+        except subprocess.TimeoutExpired:
+            rc, log = "timeout", ""
+        run_s = time.time() - t1
+        with open(side, "w") as f:
+            json.dump({"exit": rc, "log": log, "run_s": run_s, "cmd": cmd}, f)
     base = {"config": name, "density": cfg["density"], "slope_pct": round(100 * cfg["slope"]),
             "density_true": round(truth["density"], 2), "run_s": round(run_s, 1), "exit": rc}
     if rc != 0:
@@ -201,6 +212,8 @@ def _run_score(cfg, truth, work, spacing, las, stands_path, timeout, python):
     return rows
 
 
+RESCORE = False  # --rescore: score the outputs kept in --work (runs without them rerun)
+
 COLUMNS = ("config", "talhao", "design", "azimuth_true", "density", "slope_pct", "lattice_ok",
            "spacing_found", "azimuth_found", "positions_true", "positions_found",
            "stocking_true", "stocking_err_pts", "gap_precision", "missing_recall", "tree_f")
@@ -218,7 +231,11 @@ def main(argv=None):
                     help="also run with the true -spacing RxC (files of one design)")
     ap.add_argument("--diagnostics", action="store_true",
                     help="run _family2.DIAGNOSTICS (controls) instead of CONFIGS")
+    ap.add_argument("--rescore", action="store_true",
+                    help="score the CLI outputs kept in --work instead of running it again")
     a = ap.parse_args(argv)
+    global RESCORE
+    RESCORE = a.rescore
     pool = fam.DIAGNOSTICS if a.diagnostics else fam.CONFIGS
     configs = [c for c in pool if (not a.configs or c["name"] in a.configs)
                and (a.density is None or c["density"] == a.density)]
