@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import os
 import tempfile
+import zlib
 
 import numpy as np
 import shapely
@@ -399,7 +400,7 @@ def _simulate(trees, terrain, pulses, bbox, seed, understory, rng, chunk=6000):
     margin = int(np.ceil(buf / scan.DXY)) + 4
     ncx = int(np.ceil((bbox[2] - bbox[0]) / scan.DXY)) + 2 * margin
     ncy = int(np.ceil((bbox[3] - bbox[1]) / scan.DXY)) + 2 * margin
-    crng = np.random.default_rng([seed, 11])
+    crng = np.random.default_rng([seed, 11, int(bbox[0]) % 100000])
     clumps = (scan.scene_clumps(ncx // 2 + 2, ncy // 2 + 2, nh, crng), margin)
     outs = []
     for t in np.unique(tid):
@@ -418,10 +419,31 @@ def _simulate(trees, terrain, pulses, bbox, seed, understory, rng, chunk=6000):
 
 
 def _flight(cfg, bbox, terrain, density, seed):
-    frng = np.random.default_rng([seed, 7])
+    frng = np.random.default_rng([seed, 7, zlib.crc32(cfg["name"].encode())])
     heading = frng.choice([0.0, 90.0, 45.0, 135.0]) + frng.normal(0, 8)
     return scan.flight_pulses(bbox, terrain, density, frng, altitude=cfg["altitude"],
                               heading=heading, scanner=cfg["scanner"])
+
+
+def _returns_per_pulse(cfg, stands, polys, trees, terrain, bbox, seed, rng):
+    """Pilot: returns per pulse over the stands (2,000 pulses in each planted area's central
+    tile; a firebreak pulse gives about one return)."""
+    pilot = _flight(cfg, bbox, terrain, cfg["density"] / 1.5, seed)
+    total = 0.0
+    for st, poly in zip(stands, polys):
+        planted = shapely.from_wkt(st["planted"])
+        tile = np.floor((np.array(planted.centroid.coords[0]) - np.array(bbox[:2])) / TILE)
+        near = np.nonzero((np.floor((pilot["xg"] - bbox[0]) / TILE) == tile[0])
+                          & (np.floor((pilot["yg"] - bbox[1]) / TILE) == tile[1])
+                          & shapely.contains_xy(planted, pilot["xg"], pilot["yg"]))[0]
+        near = rng.permutation(near)[:2000]
+        r = 2.0
+        if near.size:
+            pr = _simulate(trees, terrain, {k: v[near] for k, v in pilot.items()}, bbox, seed,
+                           cfg["understory"], rng)
+            r = pr["x"].size / near.size
+        total += r * planted.area + 1.02 * (poly.area - planted.area)
+    return total / sum(p.area for p in polys)
 
 
 def make_stand(config, seed=0):
@@ -438,7 +460,7 @@ def make_stand(config, seed=0):
     stands), n_pulses.
     """
     cfg = CONFIG_BY_NAME[config] if isinstance(config, str) else config
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng([seed, zlib.crc32(cfg["name"].encode())])  # own layout each
     cx, cy = 640000.0 + rng.uniform(0, 20000), 7780000.0 + rng.uniform(0, 40000)
     polys = _stand_polygons(cfg, rng, cx, cy)
     st0 = cfg["stands"][0]
@@ -476,21 +498,12 @@ def make_stand(config, seed=0):
         if nt is not None:
             tree_parts.append(nt)
     trees = {k: np.concatenate([t[k] for t in tree_parts]) for k in tree_parts[0]}
-    # pilot: returns per pulse in the tile at the first stand's centre
-    pilot = _flight(cfg, bbox, terrain, cfg["density"] / 1.5, seed)
-    pc = np.array(shapely.from_wkt(stands[0]["planted"]).centroid.coords[0])
-    tile = np.floor((pc - np.array(bbox[:2])) / TILE)
-    near = np.nonzero((np.floor((pilot["xg"] - bbox[0]) / TILE) == tile[0])
-                      & (np.floor((pilot["yg"] - bbox[1]) / TILE) == tile[1])
-                      & shapely.contains_xy(shapely.from_wkt(stands[0]["planted"]),
-                                            pilot["xg"], pilot["yg"]))[0]
-    near = rng.permutation(near)[:2500]
-    pr = _simulate(trees, terrain, {k: v[near] for k, v in pilot.items()}, bbox, seed,
-                   cfg["understory"], rng)
-    r_tile = pr["x"].size / max(near.size, 1)
-    f = sum(shapely.from_wkt(s["planted"]).area for s in stands) / union.area
-    r_stand = r_tile * f + 1.02 * (1 - f)
-    pulses = _flight(cfg, bbox, terrain, 1.2 * cfg["density"] / r_stand, seed)
+    r_stand = _returns_per_pulse(cfg, stands, polys, trees, terrain, bbox, seed, rng)
+    # the stands may lie in a strip flown once or twice: scale the rate by the pulses they get
+    dp = cfg["density"] / r_stand
+    trial = _flight(cfg, bbox, terrain, dp, seed)
+    local = shapely.contains_xy(union, trial["xg"], trial["yg"]).sum() / union.area
+    pulses = _flight(cfg, bbox, terrain, 1.1 * dp * dp / max(local, 1e-6), seed)
     pulses["pid"] = np.arange(pulses["xg"].size)
     pts = _simulate(trees, terrain, pulses, bbox, seed, cfg["understory"], rng)
     # a lower pulse rate: keep a regular share of the pulses (in time order) for the density
