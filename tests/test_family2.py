@@ -1,0 +1,136 @@
+"""The second stand family (benchmarks/_family2.py) against its own truth (issue 41)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+shapely = pytest.importorskip("shapely")
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+import _family2 as fam  # noqa: E402
+
+SMALL = fam._cfg("small_two", [fam._stand((3, 2), 35, 0.45, crown_k=fam.CLOSED, missing=0.12),
+                               fam._stand((3.5, 2.5), 120, 0.45, crown_k=fam.OPEN, age=3,
+                                          missing=0.08)],
+                 density=8, slope=0.2, neighbours=True)
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return fam.make_stand(SMALL, seed=3)
+
+
+def _brute_positions(stand):
+    """Lattice nodes inside the planted polygon, enumerated over a wide index range."""
+    lat = stand["lattice"]
+    u, v = fam._units(lat["azimuth"])
+    o = np.array(lat["origin"])
+    ii, jj = np.meshgrid(np.arange(-5, 400), np.arange(-5, 400), indexing="ij")
+    x = o[0] + ii.ravel() * lat["row_spacing"] * v[0] + jj.ravel() * lat["plant_spacing"] * u[0]
+    y = o[1] + ii.ravel() * lat["row_spacing"] * v[1] + jj.ravel() * lat["plant_spacing"] * u[1]
+    return int(shapely.contains_xy(shapely.from_wkt(stand["planted"]), x, y).sum())
+
+
+def test_positions_are_the_lattice_in_the_planted_area(scene):
+    _, truth = scene
+    assert len(truth["stands"]) == 2
+    for st in truth["stands"]:
+        pos = st["positions"]
+        assert pos.size == st["n_positions"] == _brute_positions(st)
+        assert np.unique(pos[["row", "plant"]]).size == pos.size
+        lat = st["lattice"]
+        u, v = fam._units(lat["azimuth"])
+        rel = np.c_[pos["x"], pos["y"]] - np.array(lat["origin"])
+        i = rel @ v / lat["row_spacing"]
+        j = rel @ u / lat["plant_spacing"]
+        assert np.allclose(i, pos["row"], atol=1e-6) and np.allclose(j, pos["plant"], atol=1e-6)
+        # spacings recovered from the positions: nearest in-row and across-row neighbours
+        from scipy.spatial import cKDTree
+        d, _ = cKDTree(np.c_[pos["x"], pos["y"]]).query(np.c_[pos["x"], pos["y"]], k=2)
+        assert abs(np.median(d[:, 1]) - min(lat["row_spacing"], lat["plant_spacing"])) < 1e-6
+        # the first row stands 0.5 x rows .. a few metres inside the stand polygon
+        edge = shapely.from_wkt(st["polygon"]).exterior
+        dist = shapely.distance(edge, shapely.points(pos["x"], pos["y"]))
+        assert dist.min() >= 0.5 * lat["row_spacing"] - 1e-6
+        assert dist.min() <= 4.5 + lat["row_spacing"]
+
+
+def test_statuses_and_stocking(scene):
+    _, truth = scene
+    for st, cfg in zip(truth["stands"], SMALL["stands"]):
+        pos = st["positions"]
+        counts = {s: int((pos["status"] == s).sum()) for s in fam.STATUSES}
+        assert counts == st["counts"] and sum(counts.values()) == pos.size
+        assert st["stocking_pct"] == pytest.approx(100 * (1 - counts["missing"] / pos.size))
+        assert abs(counts["missing"] - cfg["missing"] * pos.size) <= 1
+        miss = pos["status"] == "missing"
+        assert np.isnan(pos["height"][miss]).all() and np.isfinite(pos["height"][~miss]).all()
+        # runs of missing trees along a row: some run is longer than one tree
+        key = set(zip(pos["row"][miss].tolist(), pos["plant"][miss].tolist()))
+        assert any((r, p + 1) in key for r, p in key)
+        # replanted and suppressed trees are shorter than the row's planted trees
+        tree = pos["status"] == "tree"
+        for s, most in (("replant", 0.85), ("suppressed", 0.6)):
+            k = pos["status"] == s
+            assert k.any()
+            assert np.all(pos["height"][k] < most * np.median(pos["height"][tree]))
+    allpos = truth["positions"]
+    assert truth["stocking_pct"] == pytest.approx(
+        100 * (allpos["status"] != "missing").sum() / allpos.size)
+
+
+def test_density_and_ground(scene):
+    pts, truth = scene
+    assert abs(truth["density"] - SMALL["density"]) / SMALL["density"] < 0.2
+    g = pts["classification"] == 2
+    assert 0.05 < g.mean() < 0.9
+    dz = pts["z"][g] - fam.terrain_z(truth, pts["x"][g], pts["y"][g])
+    assert abs(np.median(dz)) < 0.05 and np.percentile(np.abs(dz), 95) < 0.25
+    # multiple returns: returns of a pulse numbered 1..n, later returns lower
+    assert pts["number_of_returns"].max() >= 3
+    assert np.all(pts["return_number"] <= pts["number_of_returns"])
+    assert np.abs(pts["scan_angle"]).max() <= 20.5
+    # the highest returns reach the truth's tallest trees, not beyond
+    hag = pts["z"] - fam.terrain_z(truth, pts["x"], pts["y"])
+    h = truth["positions"]["height"]
+    assert np.nanmax(h) - 1.5 < hag.max() < np.nanmax(h) + 0.5
+
+
+def test_writers_roundtrip(scene, tmp_path):
+    laspy = pytest.importorskip("laspy")
+    gpd = pytest.importorskip("geopandas")
+    pts, truth = scene
+    fam.write_las(pts, tmp_path / "s.las")
+    las = laspy.read(tmp_path / "s.las")
+    assert len(las.points) == pts["x"].size
+    assert las.header.parse_crs().to_epsg() == 31983
+    assert np.allclose(np.asarray(las.z), pts["z"], atol=0.001)
+    assert np.array_equal(np.asarray(las.classification), pts["classification"])
+    fam.write_stands(truth, tmp_path / "s.gpkg")
+    gdf = gpd.read_file(tmp_path / "s.gpkg")
+    assert list(gdf["talhao"]) == ["T01", "T02"] and gdf.crs.to_epsg() == 31983
+    assert gdf.geometry.area.sum() / 1e4 == pytest.approx(
+        sum(s["area_ha"] for s in truth["stands"]), rel=1e-6)
+
+
+@pytest.mark.parametrize("scatter", [0.0, 1.0])
+def test_tops_scatter_around_their_planting_positions(scatter):
+    """Tops stand on their positions with scatter 0; 0.1-0.6 m off (planting error, lean)."""
+    rng = np.random.default_rng(5)
+    st = fam._stand((3, 2), 30, crown_k=fam.CLOSED, scatter=scatter)
+    poly = fam._rect(0.0, 0.0, 80.0, 60.0, 0.3)
+    x, y, i, j = fam._lattice_positions(poly, np.array([0.3, 0.2]), 30.0, 3.0, 2.0)
+    row, plant = i - i.min(), j - j.min()
+    status, key = fam._statuses(row, plant, st, rng)
+    terrain = fam.Terrain.random(rng, 0.0, 0.0, 0.1)
+    t, extra = fam._trees(x, y, row, plant, status, key, st, rng, terrain, 30.0)
+    has = status != "missing"
+    d = np.hypot(extra["top_x"] - x, extra["top_y"] - y)[has]
+    assert t["H"].size == has.sum()
+    if scatter == 0.0:
+        assert d.max() < 1e-9
+    else:
+        assert 0.1 < np.median(d) < 0.6 and d.max() < 1.6
