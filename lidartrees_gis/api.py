@@ -17,7 +17,8 @@ import numpy as np
 
 from .grid import GridSpec
 
-__all__ = ["canopy_height", "find_trees", "classify_ground", "point_info", "raster_profile"]
+__all__ = ["canopy_height", "find_trees", "classify_ground", "point_info", "raster_profile",
+           "metrics", "volume"]
 
 
 def raster_profile(spec: GridSpec, dtype="float32", nodata=float("nan")) -> dict:
@@ -124,3 +125,34 @@ def classify_ground(input, *, params=None, a_srs=None, t_srs=None, progress=None
 
     src = ReadOptions(a_srs=a_srs, t_srs=t_srs, **read_kw).open(input, filtered=False)
     return ground_points(src, params, progress)
+
+
+def metrics(input, output=None, *, res=20.0, plots=None, plot_id=None, plot_radius=None,
+            stands=None, stand_id=None, min_height=2.0, returns="all", dtm="auto",
+            drop_class=(7, 18), keep_class=None, a_srs=None, t_srs=None, tile_size=None,
+            workers=None, overwrite=False, progress=None, **read_kw):
+    """The standard height metrics (lidR's ``.stdmetrics_z``, FUSION's L-moments and cover;
+    :mod:`lidartrees_gis.inventory.metrics`) per cell of ``res`` m, or per plot and stand
+    (``lidartrees metrics``).
+
+    Without ``output`` nothing is written: the result holds ``grid`` = ``(GridSpec, (bands,
+    rows, cols) array)`` (bands in the order of
+    :data:`~lidartrees_gis.inventory.metrics.METRICS`) or ``layers`` = ``{"plot_metrics":
+    GeoDataFrame, "stand_metrics": GeoDataFrame}``. With ``output`` (``.tif`` or ``.gpkg``)
+    they are written there too.
+    """
+    from .als.surfaces import SurfaceOptions
+    from .catalog.catalog import TilingOptions
+    from .inventory.chain import metrics_run
+    from .inventory.tiles import MetricOptions
+    from .io.options import ReadOptions
+    from .io.output import OutputOptions
+
+    return metrics_run(input, output, res=res, plots=plots, plot_id=plot_id,
+                       plot_radius=plot_radius, stands=stands, stand_id=stand_id,
+                       options=MetricOptions(min_height=min_height, returns=returns),
+                       surface=SurfaceOptions(dtm=dtm, chm="max", fill="none", outliers=False),
+                       read=ReadOptions(a_srs=a_srs, t_srs=t_srs, drop_class=drop_class,
+                                        keep_class=keep_class, **read_kw),
+                       tiling=TilingOptions(tile_size=tile_size, workers=workers),
+                       out=OutputOptions(overwrite=overwrite), progress=progress)

@@ -198,3 +198,30 @@ def demo(outdir=None, **kw):
 
     return run_demo(outdir or "lidartrees_demo", overwrite=bool(kw.get("overwrite")),
                     progress=kw.get("progress"))
+
+
+def _metric_options(kw):
+    from ..inventory.tiles import MetricOptions
+
+    mh = kw.get("min_height")
+    mh = 2.0 if mh in (None, "") else None if str(mh).strip().lower() == "none" else \
+        _number({"min_height": str(mh).replace(",", ".")}, "min_height")
+    return MetricOptions(min_height=mh, returns=kw.get("returns") or "all")
+
+
+def _metric_surface(kw):
+    from ..als.surfaces import SurfaceOptions
+
+    return SurfaceOptions(dtm=kw.get("dtm") or "auto", chm="max", fill="none", outliers=False)
+
+
+def metrics(input, output, **kw):
+    from ..inventory.chain import metrics_run
+
+    res = _number(kw, "res")
+    r = metrics_run(input, output, res=20.0 if res is None else res, plots=kw.get("plots"),
+                    plot_id=kw.get("plot_id"), plot_radius=_number(kw, "plot_radius"),
+                    stands=kw.get("stands"), stand_id=kw.get("stand_id"),
+                    options=_metric_options(kw), surface=_metric_surface(kw), read=_read(kw),
+                    tiling=_tiling(kw), out=_out(kw), progress=kw.get("progress"))
+    return {k: v for k, v in r.items() if k not in ("grid", "layers")}

@@ -165,6 +165,24 @@ KEEP_OUTLIERS = Param("keep_outliers", "bool", "Keep isolated returns far above 
                       "(birds, clouds, unclassified noise), which are removed by default",
                       flag="-keep_outliers", default=False, advanced=True)
 
+PLOT_PARAMS = (
+    Param("plots", "vector", "Field plots (parcelas): a polygon layer, or plot centres (points) "
+          "with -plot_radius, PATH or PATH:LAYER", flag="-plots"),
+    Param("plot_id", "str", "The plots' id field (default: the first of plot_id, parcela, "
+          "id_parcela, plot, id, name present; else 1, 2, ...)", flag="-plot_id",
+          advanced=True),
+    Param("plot_radius", "float", "Radius of circular plots given by their centres (11.28 m "
+          "for 400 m²)", flag="-plot_radius", unit="m"),
+)
+METRIC_PARAMS = (
+    Param("min_height", "str", "Metrics of the returns above this height (m); none = of every "
+          "return (lidR's pixel_metrics default); cover counts the first returns above it",
+          flag="-min_height", default="2"),
+    Param("returns", "choice", "Metrics of all returns or of the first returns",
+          flag="-returns", choices=("all", "first"), default="all"),
+    Param("dtm", "str", "Ground for the heights (see chm); none = heights already normalised",
+          flag="-dtm", default="auto", advanced=True),
+)
 
 COMMANDS = {
     "info": Command(
@@ -403,6 +421,21 @@ COMMANDS = {
                "polygon file (PATH or PATH:LAYER); detections outside it are not false "
                "positives, references outside it are left out", flag="-area"),
          OVERWRITE), "evaluate", outputs=("report",)),
+    "metrics": Command(
+        "metrics", "Inventory", "Standard height metrics (lidR .stdmetrics_z, FUSION L-moments "
+        "and cover) per cell (multi-band GeoTIFF) or per field plot and stand (GeoPackage)",
+        (INPUT, Param("output", "output", "Output: a .tif gets one named band a metric per "
+                      "cell; a .gpkg the layers plot_metrics and stand_metrics"),
+         Param("res", "float", "Metric cell size (use the plots' size for an area-based "
+               "model: 20 m for 400 m² plots)", flag="-tr", aliases=("--resolution",),
+               default=20.0, unit="m"),
+         *PLOT_PARAMS,
+         Param("stands", "vector", "Stand (talhão) polygons, PATH or PATH:LAYER", flag="-stands"),
+         Param("stand_id", "str", "The stands' id field (default: stand_id, talhao, ... or "
+               "numbered)", flag="-stand_id", advanced=True),
+         *METRIC_PARAMS,
+         *CLASSES, *(p for p in TILES if p.name in ("tile_size", "workers", "scheduler")),
+         *READ_GEO, CO, OVERWRITE), "metrics", outputs=("output",)),
     "demo": Command(
         "demo", "Demo", "Generate a synthetic eucalyptus stand with known trees and process it",
         (Param("outdir", "outdir", "Output folder (default lidartrees_demo)", default=None,
