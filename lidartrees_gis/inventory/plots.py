@@ -88,15 +88,16 @@ class Zones:
     def __len__(self) -> int:
         return len(self.geoms)
 
-    def members(self, x, y) -> np.ndarray:
-        """The zone index of each return (-1: in none; the first zone where zones overlap)."""
+    def pairs(self, x, y) -> tuple:
+        """``(point index, zone index)`` of every return in every zone (a return in two
+        overlapping plots belongs to both)."""
         import shapely
 
         x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
-        out = np.full(x.size, -1, np.int64)
         b = shapely.bounds(self.geoms)
+        pi, zi = [], []
         for k in range(len(self.geoms)):
-            near = np.flatnonzero((out < 0) & (x >= b[k, 0] - 1e-6) & (x <= b[k, 2] + 1e-6)
+            near = np.flatnonzero((x >= b[k, 0] - 1e-6) & (x <= b[k, 2] + 1e-6)
                                   & (y >= b[k, 1] - 1e-6) & (y <= b[k, 3] + 1e-6))
             if near.size == 0:
                 continue
@@ -105,8 +106,24 @@ class Zones:
                 inside = dx * dx + dy * dy <= self.radius[k] ** 2
             else:
                 inside = shapely.contains_xy(self.geoms[k], x[near], y[near])
-            out[near[inside]] = k
+            pi.append(near[inside])
+            zi.append(np.full(int(inside.sum()), k, np.int64))
+        if not pi:
+            return np.empty(0, np.int64), np.empty(0, np.int64)
+        return np.concatenate(pi), np.concatenate(zi)
+
+    def members(self, x, y) -> np.ndarray:
+        """The zone index of each return (-1: in none; the first zone where zones overlap)."""
+        out = np.full(np.asarray(x).size, -1, np.int64)
+        pi, zi = self.pairs(x, y)
+        out[pi[::-1]] = zi[::-1]  # the first zone wins
         return out
+
+    def counts(self, x, y, weights=None) -> np.ndarray:
+        """Per zone, the returns (or the sum of ``weights``) inside it."""
+        pi, zi = self.pairs(x, y)
+        w = None if weights is None else np.asarray(weights, float)[pi]
+        return np.bincount(zi, weights=w, minlength=len(self.geoms)).astype(float)
 
 
 def _ids(gdf, id_field, name: str):

@@ -95,10 +95,9 @@ def tile_heights(tile, area, plan, surface: SurfaceOptions, task: HeightTask, su
         out["cells"] = (r0, c0, np.stack([m[k].reshape(r1 - r0, w) for k in METRICS])
                         .astype(np.float32))
     for k, zones in enumerate(task.zones):
-        idx = zones.members(x, y)
-        sel = idx >= 0
-        out["zones"][k] = (idx[sel], hag[sel].astype(np.float64),
-                           None if first is None else first[sel])
+        pi, zi = zones.pairs(x, y)
+        out["zones"][k] = (zi, hag[pi].astype(np.float64),
+                           None if first is None else first[pi])
     return out
 
 
