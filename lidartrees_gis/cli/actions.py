@@ -225,3 +225,29 @@ def metrics(input, output, **kw):
                     options=_metric_options(kw), surface=_metric_surface(kw), read=_read(kw),
                     tiling=_tiling(kw), out=_out(kw), progress=kw.get("progress"))
     return {k: v for k, v in r.items() if k not in ("grid", "layers")}
+
+
+def volume(input, plots, output, **kw):
+    from ..inventory.field import Equation
+    from ..inventory.volume import VolumeOptions, volume_run
+
+    eq = kw.get("volume_equation")
+    n = _number(kw, "resamples", int)
+    opts = VolumeOptions(approach=kw.get("approach") or "aba",
+                         equation=Equation.parse(eq) if eq not in (None, "") else None,
+                         res=kw.get("res") or "auto", resamples=400 if n is None else n)
+    r = volume_run(input, plots, output, stands=kw.get("stands"),
+                   trees_table=kw.get("trees_table") or None, plot_id=kw.get("plot_id"),
+                   plot_radius=_number(kw, "plot_radius"), stand_id=kw.get("stand_id"),
+                   options=opts, metric=_metric_options(kw), surface=_metric_surface(kw),
+                   read=_read(kw), tiling=_tiling(kw), out=_out(kw), progress=kw.get("progress"))
+    rep = r["report"]
+    out = {k: v for k, v in r.items() if k not in ("layers", "volume_grid", "report")}
+    for key in ("volume_model", "basal_area_model"):
+        if key in rep:
+            m = rep[key]
+            out[key] = f"{m['equation']} (R² {m['r2']:.3f}, RMSE {m['rmse_pct']:.1f} %, LOO " \
+                       f"RMSE {m['loo_rmse_pct']:.1f} %)"
+    if "total_m3" in rep:
+        out["total_m3"] = round(rep["total_m3"], 1)
+    return out

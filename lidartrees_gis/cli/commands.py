@@ -436,6 +436,36 @@ COMMANDS = {
          *METRIC_PARAMS,
          *CLASSES, *(p for p in TILES if p.name in ("tile_size", "workers", "scheduler")),
          *READ_GEO, CO, OVERWRITE), "metrics", outputs=("output",)),
+    "volume": Command(
+        "volume", "Inventory", "Wood volume per stand (m³/ha, m³, basal area) with 95 % "
+        "intervals, from LiDAR and field plots: area-based model and/or detected trees",
+        (INPUT, Param("plots", "vector", "Field plots (parcelas): a polygon layer, or plot "
+                      "centres (points) with -plot_radius; may carry volume_m3_ha when there "
+                      "is no tree table", required=True),
+         Param("output", "output", "Output GeoPackage (layers plots, stands, tree_tops); "
+               "OUT_volume.tif (m³/ha), OUT_report.json and OUT_report.png beside it"),
+         Param("stands", "vector", "Stand (talhão) polygons, PATH or PATH:LAYER",
+               flag="-stands", required=True),
+         Param("trees_table", "str", "Field trees table (CSV/TXT, pt-BR or English): plot "
+               "(parcela), tree (arvore), DAP cm (dap) or CAP cm (cap), HT m (ht, for all or "
+               "some trees), volume m³ (optional)", flag="-trees_table"),
+         *(p for p in PLOT_PARAMS if p.name != "plots"),
+         Param("stand_id", "str", "The stands' id field (default: stand_id, talhao, ... or "
+               "numbered)", flag="-stand_id", advanced=True),
+         Param("volume_equation", "str", "Schumacher-Hall coefficients b0,b1,b2 of V = "
+               "b0·DAP^b1·HT^b2 (DAP cm, HT m, V m³); default: fitted on the trees that "
+               "carry a volume", flag="-volume_equation"),
+         Param("approach", "choice", "aba = area-based model of the plots' height metrics; "
+               "trees = detected trees' volume from their heights, scaled by the plots; both",
+               flag="-approach", choices=("aba", "trees", "both"), default="aba"),
+         Param("res", "str", "Cell size of the wall-to-wall metrics: auto = the plots' size "
+               "(20 m for 400 m² plots)", flag="-tr", aliases=("--resolution",),
+               default="auto", unit="m"),
+         Param("resamples", "float", "Bootstrap resamples of the plots for the intervals",
+               flag="-resamples", default=400, advanced=True),
+         *METRIC_PARAMS, *CLASSES,
+         *(p for p in TILES if p.name in ("tile_size", "workers", "scheduler")),
+         *READ_GEO, CO, OVERWRITE), "volume", outputs=("output",)),
     "demo": Command(
         "demo", "Demo", "Generate a synthetic eucalyptus stand with known trees and process it",
         (Param("outdir", "outdir", "Output folder (default lidartrees_demo)", default=None,

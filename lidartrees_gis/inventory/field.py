@@ -139,7 +139,8 @@ def fit_hypsometric(dap, ht) -> tuple:
     X = np.column_stack([np.ones(ok.sum()), 1.0 / dap[ok]])
     coef, *_ = np.linalg.lstsq(X, np.log(ht[ok]), rcond=None)
     pred = np.exp(X @ coef)
-    return float(coef[0]), float(coef[1]), int(ok.sum()), float(np.sqrt(np.mean((pred - ht[ok]) ** 2)))
+    rmse = float(np.sqrt(np.mean((pred - ht[ok]) ** 2)))
+    return float(coef[0]), float(coef[1]), int(ok.sum()), rmse
 
 
 def fit_schumacher(dap, ht, vol) -> Equation:

@@ -22,7 +22,6 @@ stands holding two plots or more) plus the residual variance over the stand's ce
 from __future__ import annotations
 
 import itertools
-import math
 from dataclasses import dataclass, field
 
 import numpy as np

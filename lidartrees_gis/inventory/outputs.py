@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 
-from .models import BOOTSTRAP, CANDIDATES
+from .models import CANDIDATES
 
 FIELD_DOCS = {
     "volume_m3_ha": "wood volume (m³/ha): measured (plots) or estimated (stands)",
@@ -140,9 +140,10 @@ def _draw(report, y, fit, loo):
         ax.set_ylabel("predicted volume (m³/ha)")
         ax.set_title(f"{m['form']}: {', '.join(m['predictors'])} ({m['plots']} plots)",
                      fontsize=9)
-        ax.text(0.03, 0.97, f"R² {m['r2']:.3f} (adj. {m['adj_r2']:.3f})\nRMSE {m['rmse_pct']:.1f} %"
-                f"  bias {m['bias_pct']:+.2f} %\nLOO RMSE {m['loo_rmse_pct']:.1f} %  "
-                f"LOO R² {m['loo_r2']:.3f}", transform=ax.transAxes, va="top", fontsize=9)
+        ax.text(0.03, 0.97, f"R² {m['r2']:.3f} (adj. {m['adj_r2']:.3f})\n"
+                f"RMSE {m['rmse_pct']:.1f} %  bias {m['bias_pct']:+.2f} %\n"
+                f"LOO RMSE {m['loo_rmse_pct']:.1f} %  LOO R² {m['loo_r2']:.3f}",
+                transform=ax.transAxes, va="top", fontsize=9)
         ax.legend(loc="lower right", fontsize=8)
     return draw
 

@@ -82,7 +82,7 @@ def side_outputs(output) -> dict:
             "png": Path(f"{stem}_report.png")}
 
 
-def _plot_measurements(plots, trees_table, equation, metric_hint=None) -> dict:
+def _plot_measurements(plots, trees_table, equation) -> dict:
     """Each plot's measured figures and the completed tree table (None without one)."""
     if trees_table is None:
         cols = {normalise(c): c for c in plots.attrs.columns}
@@ -105,7 +105,7 @@ def _plot_measurements(plots, trees_table, equation, metric_hint=None) -> dict:
 
 def _cell_res(options: VolumeOptions, plots) -> float:
     if isinstance(options.res, str):
-        return round(math.sqrt(float(np.mean(plots.area_m2))), 2)
+        return max(0.5, round(2 * math.sqrt(float(np.mean(plots.area_m2)))) / 2)  # 0.5 m steps
     return float(options.res)
 
 
@@ -121,7 +121,7 @@ def _cells(grid_spec, grid, stand_zones):
 
 
 def _tree_approach(input, plots, stands_src, stand_id, stands, trees, equation, read, tiling,
-                   surface, plot_stand, options, progress) -> dict:
+                   surface, progress) -> dict:
     """Detected trees' DAP and volume, their sums per plot and stand, the ratio estimate."""
     from ..als.chain import trees_run
     from ..als.surfaces import SurfaceOptions
@@ -221,7 +221,7 @@ def volume_run(input, plots, output, *, stands, trees_table=None, plot_id=None,
     if options.approach in ("trees", "both"):
         prog.update(0.6, "trees")
         res_trees = _tree_approach(input, pl, stands, stand_id, st, meas["trees"],
-                                   options.equation, read, tiling, surface, plot_stand, options,
+                                   options.equation, read, tiling, surface,
                                    SubProgress(prog, 0.6, 0.9))
         res_trees["stands"] = ratio_stands(y, res_trees["detected_m3_ha"],
                                            res_trees["stand_detected_m3_ha"], plot_stand,
