@@ -15,7 +15,9 @@ needs at least :data:`MIN_PLOTS` plots.
 Stand estimates: the mean of the model's cell predictions in the stand (cells of the plots'
 size). Their 95 % interval ``estimate ± t(0.975, n - p - 1) · sqrt(V_boot + σ²_stand)``:
 ``V_boot`` the variance of the stand's estimate over bootstrap resamples of the plots (the model
-refitted on each, :data:`BOOTSTRAP` resamples, inflated by ``n / (n - p - 1)``), ``σ²_stand``
+refitted on each, :data:`BOOTSTRAP` resamples; the variance of a normal with their central 95 %
+range, robust to the wild refits of resamples of few distinct plots; inflated by
+``n / (n - p - 1)``), ``σ²_stand``
 the between-stand variance of the plots' leave-one-out residuals (one-way random effects,
 stands holding two plots or more) plus the residual variance over the stand's cells.
 """
@@ -194,6 +196,15 @@ def between_variance(resid, stand) -> float:
     return max(0.0, (msb - within) / n0)
 
 
+def boot_variance(reps, n: int) -> np.ndarray:
+    """A variance robust to the few wild refits of small resamples: that of a normal with the
+    resamples' central 95 % range, ``((q97.5 - q2.5) / 3.92)²``."""
+    if len(reps) < 10:
+        return np.full(n, np.nan)
+    q = np.nanpercentile(np.asarray(reps, float), [2.5, 97.5], axis=0)
+    return ((q[1] - q[0]) / 3.92) ** 2
+
+
 def _stand_means(pred, cell_stand, n_stands):
     ok = np.isfinite(pred) & (cell_stand >= 0)
     s = np.bincount(cell_stand[ok], weights=pred[ok], minlength=n_stands)
@@ -226,6 +237,8 @@ def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_
     reps = []
     for _ in range(resamples):
         idx = rng.integers(0, n, n)
+        if np.unique(idx).size < p + 2:  # too few distinct plots to refit the model
+            continue
         r = _ols(Xp[idx], yt[idx])
         if r is None:
             continue
@@ -235,8 +248,7 @@ def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_
         pred = np.full(Xc.shape[0], np.nan)
         pred[valid] = np.exp(eta + s2 / 2) if model.form == "loglog" else eta
         reps.append(_stand_means(pred, cell_stand, n_stands)[0])
-    reps = np.array(reps) if reps else np.full((1, n_stands), np.nan)
-    v_boot = np.nanvar(reps, axis=0, ddof=1) * n / max(n - p - 1, 1)
+    v_boot = boot_variance(reps, n_stands) * n / max(n - p - 1, 1)
     resid = y - model.stats["loo"]
     s2_b = between_variance(resid, plot_stand)
     s2_cells = float(np.mean(resid ** 2))
@@ -279,7 +291,7 @@ def ratio_stands(field_v, lidar_v, stand_lidar_v, plot_stand, *, resamples: int 
         idx = rng.integers(0, n, n)
         if d[idx].sum() > 0:
             rs.append(f[idx].sum() / d[idx].sum())
-    rs = np.array(rs)
+    v_r = float(boot_variance(np.array(rs)[:, None], 1)[0])
     sv = np.asarray(stand_lidar_v, float)
     est = R * sv
     # leave-one-out ratio predictions of each plot
@@ -287,7 +299,7 @@ def ratio_stands(field_v, lidar_v, stand_lidar_v, plot_stand, *, resamples: int 
     resid = f - loo
     s2_b = between_variance(resid, plot_stand)
     with np.errstate(invalid="ignore"):
-        se = np.sqrt((np.var(rs, ddof=1) * n / max(n - 1, 1)) * sv ** 2 + s2_b)
+        se = np.sqrt(v_r * n / max(n - 1, 1) * sv ** 2 + s2_b)
     t = t975(n - 1)
     return {"estimate": est, "low": np.maximum(est - t * se, 0), "high": est + t * se, "se": se,
             "ratio": float(R), "loo": loo, "sigma2_stand": s2_b,
