@@ -35,7 +35,7 @@ STYLES = {("chm", "output"): "chm.qml", ("chm", "dtm_out"): "dtm_hillshade.qml",
           ("trees", "chm_out"): "chm.qml", ("grid", "output"): None}
 #: commands whose INPUT can also be a point-cloud layer loaded in QGIS (INPUT_LAYER)
 LAYER_INPUT = ("info", "grid", "chm", "trees", "compare", "ground", "dtm-quality", "stem",
-               "profile")
+               "profile", "metrics", "volume")
 #: LAS/LAZ outputs (the default extension of a temporary output is the first one)
 LAS_OUTPUTS = {("ground", "output"), ("profile", "output")}
 GPKG_LAYERS = (("tree_tops", "tree_tops.qml"), ("crowns", "crowns.qml"))
@@ -66,6 +66,13 @@ REFERENCES = {
                    "k-means.",
     "stem": "Buck, A. L. B. et al. (2014), Dmax filter for trunk points of Pinus in TLS clouds "
             ".",
+    "metrics": "lidR's stdmetrics_z (Roussel, J.-R. et al. (2020), lidR, Remote Sensing of "
+               "Environment 251, 112061); FUSION's L-moments and cover (McGaughey, R. J., "
+               "FUSION/LDV manual). Definitions: docs/VOLUME.md.",
+    "volume": "Area-based approach (Næsset, E. (2002), Remote Sensing of Environment 80, "
+              "88-99); Schumacher, F. X. & Hall, F. S. (1933) volume equation; eucalyptus "
+              "plantations: Silva, C. A. et al. (2016), Forestry. Model form, intervals and "
+              "limits: docs/VOLUME.md.",
     "profile": "Queiroz (2017), vertical segmentation of mangrove trees into roots, stem and "
                "canopy from the point-density profile .",
 }
@@ -260,7 +267,7 @@ def _output_kind(cmd_name, p):
         return "json"
     if p.name in ("csv", "stand_csv") or cmd_name == "compare":
         return "csv"
-    if cmd_name == "trees" and p.name == "output":
+    if cmd_name in ("trees", "volume") and p.name == "output":
         return "gpkg"
     return "raster"
 
@@ -381,10 +388,10 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
                                                 defaultValue=p.default, optional=optional)
         if p.kind == "crs":
             return QgsProcessingParameterCrs(pid, label, optional=True)
-        if p.kind == "vector":
-            return QgsProcessingParameterVectorLayer(pid, label,
-                                                     [QgsProcessing.TypeVectorPolygon],
-                                                     optional=True)
+        if p.kind == "vector":  # plots may be centres (points) with a radius
+            types = [QgsProcessing.TypeVectorAnyGeometry if p.name == "plots"
+                     else QgsProcessing.TypeVectorPolygon]
+            return QgsProcessingParameterVectorLayer(pid, label, types, optional=optional)
         if p.kind == "res":
             return QgsProcessingParameterString(pid, "Cell size (m), or auto",
                                                 optional=not p.required)
@@ -518,6 +525,24 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
                     _KEEP.append(post)
                     details.setPostProcessor(post)
                 context.addLayerToLoadOnCompletion(uri, details)
+            return
+        if self._name == "volume" and p.name == "output":
+            for layer, qml in (("stands", "volume_stands.qml"), ("plots", None)):
+                details = QgsProcessingContext.LayerDetails(layer, context.project(), layer)
+                if sdir and qml:
+                    post = _Style(os.path.join(sdir, qml))
+                    _KEEP.append(post)
+                    details.setPostProcessor(post)
+                context.addLayerToLoadOnCompletion(f"{path}|layername={layer}", details)
+            raster = os.path.splitext(path)[0] + "_volume.tif"  # inventory.volume.side_outputs
+            if os.path.exists(raster):
+                details = QgsProcessingContext.LayerDetails("volume (m³/ha)", context.project(),
+                                                            "volume")
+                if sdir:
+                    post = _Style(os.path.join(sdir, "volume.qml"))
+                    _KEEP.append(post)
+                    details.setPostProcessor(post)
+                context.addLayerToLoadOnCompletion(raster, details)
             return
         if context.willLoadLayerOnCompletion(path):  # named after its file, not the label
             context.layerToLoadOnCompletionDetails(path).name = \

@@ -89,6 +89,12 @@ def test_cli_both_approaches(farm, tmp_path):
     assert m["plots"] == 9 and 1 <= len(m["predictors"]) <= 2 and m["loo_rmse_pct"] < 15
     assert rep["field"]["heights_estimated"] > 0 and rep["field"]["hypsometric"]["trees"] > 0
     assert (tmp_path / "vol_report.png").stat().st_size > 10000
+    import sqlite3
+
+    con = sqlite3.connect(out)
+    styled = dict(con.execute("SELECT f_table_name, description FROM layer_styles"))
+    con.close()
+    assert "volume_stands.qml" in styled["stands"]
 
 
 def test_python_in_memory_writes_nothing(farm, tmp_path, monkeypatch):

@@ -177,7 +177,8 @@ def write(output, side, layers, report, spec, vol_grid, res_aba, out, input, are
                      overwrite=out.overwrite)
             done.append(side["png"])
         write_gpkg(output, layers, overwrite=out.overwrite, layer_options=out.layer_options,
-                   metadata={"volume_report": report})
+                   metadata={"volume_report": report},
+                   styles={"stands": "volume_stands.qml", "tree_tops": "tree_tops.qml"})
         for layer in ("plots", "stands"):
             describe_columns(output, layer, FIELD_DOCS)
     except BaseException:
