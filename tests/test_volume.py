@@ -163,3 +163,25 @@ def test_bad_inputs_one_line_no_output(farm, tmp_path, capsys):
     i = a.index("-trees_table")
     del a[i:i + 2]
     assert "-trees_table" in _bad(capsys, a, tmp_path, out)
+
+
+def test_field_table_forms(tmp_path):
+    """CAP instead of DAP, English names, a pt-BR equation, heights of a few trees only."""
+    from lidartrees_gis.errors import InputError
+    from lidartrees_gis.inventory.field import Equation, complete_trees, plot_figures, read_trees
+
+    (tmp_path / "t.csv").write_text("plot,tree,cbh,height\n1,1,47.1,20.0\n1,2,53.4,\n"
+                                    "1,3,40.8,18.5\n2,1,50.3,21.0\n2,2,,\n", encoding="utf-8")
+    t = read_trees(tmp_path / "t.csv")
+    assert t["dap"][0] == pytest.approx(47.1 / np.pi) and t["rows_without_dap"] == 1
+    eq = Equation.parse("0,000049;1,85;1,05")
+    assert (eq.b0, eq.b1, eq.b2) == (0.000049, 1.85, 1.05)
+    c = complete_trees(t, eq)
+    assert c["ht_estimated"].tolist() == [False, True, False, False]
+    assert 18.5 < c["ht"][1] < 23  # the thickest tree: Curtis' relation puts it tallest
+    f = plot_figures(c, ["1", "2"], [400.0, 400.0])
+    assert f["n_trees"].tolist() == [3, 1] and f["trees_ha"][0] == pytest.approx(75.0)
+    v1 = eq(c["dap"][:3], c["ht"][:3]).sum() / 0.04
+    assert f["volume_m3_ha"][0] == pytest.approx(v1)
+    with pytest.raises(InputError, match="b0,b1,b2"):
+        Equation.parse("1,2")

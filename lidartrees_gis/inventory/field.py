@@ -48,7 +48,9 @@ class Equation:
     @classmethod
     def parse(cls, text) -> "Equation":
         try:
-            vals = [float(v) for v in str(text).replace(";", ",").split(",")]
+            t = str(text).strip()  # pt-BR: "0,000049;1,85;1,05"
+            parts = [v.replace(",", ".") for v in t.split(";")] if ";" in t else t.split(",")
+            vals = [float(v) for v in parts]
             if len(vals) != 3 or not vals[0] > 0:
                 raise ValueError
         except ValueError:
