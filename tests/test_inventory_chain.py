@@ -95,3 +95,23 @@ def test_bad_inputs_one_line(data, tmp_path):
     with pytest.raises(InputError, match="GeoPackage"):
         lt.metrics(data(MP), tmp_path / "x.tif", plots=data(EFI), plot_radius=11.28)
     assert not list(tmp_path.iterdir())
+
+
+def test_stand_metrics_and_python_in_memory(data, tmp_path):
+    import geopandas as gpd
+    import shapely
+
+    from lidartrees_gis import api as lt
+
+    x, y, z, _ = _xyz(data(MP))
+    boxes = [(684770, 5017780, 684880, 5017900), (684880, 5017780, 684990, 5018000)]
+    gpd.GeoDataFrame({"talhao": ["A", "B"]}, geometry=[shapely.box(*b) for b in boxes],
+                     crs="EPSG:26917").to_file(tmp_path / "st.gpkg")
+    r = lt.metrics(data(MP), stands=tmp_path / "st.gpkg", dtm="none", min_height=2.0)
+    s = r["layers"]["stand_metrics"]
+    assert list(s["stand_id"]) == ["A", "B"]
+    for k, (x0, y0, x1, y1) in enumerate(boxes):
+        sel = (x > x0) & (x < x1) & (y > y0) & (y < y1) & (z > 2.0)
+        assert s["n"][k] == sel.sum()
+        assert s["zmean"][k] == pytest.approx(z[sel].mean())
+    assert s.crs.to_epsg() == 26917
