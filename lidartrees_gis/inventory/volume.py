@@ -151,6 +151,21 @@ def _tree_approach(input, plots, stands_src, stand_id, stands, trees, equation, 
             "equation": eq}
 
 
+def _aba(pm, figures, cm, cell_stand, n_stands, plot_stand, options) -> dict:
+    """The area-based models (volume, and basal area when the trees give it) and their stand
+    estimates: ``{"volume": (model, selection table, estimates), "basal_area": ...}``."""
+    out = {}
+    for key, target in (("volume", "volume_m3_ha"), ("basal_area", "basal_area_m2_ha")):
+        if target not in figures:
+            continue
+        y = figures[target]
+        model, table = select_model(pm, y, target)
+        out[key] = (model, table, aba_stands(model, pm, y, cm, cell_stand, n_stands,
+                                             plot_stand, resamples=options.resamples,
+                                             seed=options.seed))
+    return out
+
+
 def volume_run(input, plots, output, *, stands, trees_table=None, plot_id=None,
                plot_radius=None, stand_id=None, options: VolumeOptions | None = None,
                metric: MetricOptions | None = None, surface=None,
@@ -207,16 +222,7 @@ def volume_run(input, plots, output, *, stands, trees_table=None, plot_id=None,
     res_aba = {}
     if options.approach in ("aba", "both"):
         prog.update(0.55, "area-based model")
-        model, table = select_model(pm, y, "volume_m3_ha")
-        res_aba["volume"] = (model, table, aba_stands(
-            model, pm, y, cm, cell_stand, len(st), plot_stand, resamples=options.resamples,
-            seed=options.seed))
-        if "basal_area_m2_ha" in meas["figures"]:
-            g = meas["figures"]["basal_area_m2_ha"]
-            gm, gt = select_model(pm, g, "basal_area_m2_ha")
-            res_aba["basal_area"] = (gm, gt, aba_stands(
-                gm, pm, g, cm, cell_stand, len(st), plot_stand, resamples=options.resamples,
-                seed=options.seed))
+        res_aba = _aba(pm, meas["figures"], cm, cell_stand, len(st), plot_stand, options)
     res_trees = None
     if options.approach in ("trees", "both"):
         prog.update(0.6, "trees")
