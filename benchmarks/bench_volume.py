@@ -70,7 +70,9 @@ def _summary(est, low, high, true):
     err = 100 * (est / true - 1)
     cov = (low <= true) & (true <= high)
     half = 100 * (high - low) / 2 / true
-    return {"error_pct_mean": round(float(np.mean(err)), 2),
+    return {"error_pct_by_stand": [round(float(v), 2) for v in np.mean(err, axis=0)],
+            "error_pct_sd_by_stand": [round(float(v), 2) for v in np.std(err, axis=0)],
+            "error_pct_mean": round(float(np.mean(err)), 2),
             "error_pct_mean_abs": round(float(np.mean(np.abs(err))), 2),
             "error_pct_max_abs": round(float(np.max(np.abs(err))), 2),
             "within_5pct": round(float(np.mean(np.abs(err) <= 5)), 3),
@@ -133,12 +135,13 @@ def run_config(name, p, density, draws, resamples):
               "path": "generated"}
         ft = complete_trees(ft, eq)
         ids = [str(i + 1) for i in range(len(x))]
-        y_v = plot_figures(ft, ids, np.full(len(x), area_m2))["volume_m3_ha"]
+        figs = plot_figures(ft, ids, np.full(len(x), area_m2))
+        y_v, noise = figs["volume_m3_ha"], figs["sampling_var_m3_ha"]
         plot_stand = stand_zones.members(x, y)
         model, _ = select_model(pm, y_v)
         key = f"{model.form}: {' + '.join(model.predictors)}"
         chosen[key] = chosen.get(key, 0) + 1
-        e = aba_stands(model, pm, y_v, cm, cell_stand, len(st), plot_stand,
+        e = aba_stands(model, pm, y_v, cm, cell_stand, len(st), plot_stand, plot_noise=noise,
                        resamples=resamples, seed=k)
         for a in ("est", "low", "high"):
             aba[a].append(e["estimate" if a == "est" else a])
@@ -150,7 +153,8 @@ def run_config(name, p, density, draws, resamples):
         det = z.counts(tx, ty, vol) / (area_m2 / 1e4)
         ok = sid >= 0
         sdet = np.bincount(sid[ok], weights=vol[ok], minlength=len(st)) / st.area_ha
-        rt = ratio_stands(y_v, det, sdet, plot_stand, resamples=resamples, seed=k)
+        rt = ratio_stands(y_v, det, sdet, plot_stand, plot_noise=noise, resamples=resamples,
+                          seed=k)
         for a in ("est", "low", "high"):
             trees[a].append(rt["estimate" if a == "est" else a])
         loo_trees.append(rt["plot_loo_rmse_pct"])

@@ -206,6 +206,13 @@ def plot_figures(trees: dict, plot_ids, plot_area_m2) -> dict:
     vol = np.bincount(k[sel], weights=trees["volume"][sel], minlength=len(ids))
     ba = np.bincount(k[sel], weights=g, minlength=len(ids))
     mh = np.bincount(k[sel], weights=trees["ht"][sel], minlength=len(ids)) / n
+    # the plot volume's sampling variance from its own trees: n s²(v) / area² (what the plot
+    # figure would vary by from one plot of these trees to another in the same stand)
+    v = trees["volume"][sel]
+    vm = vol / np.maximum(n, 1)
+    ss = np.bincount(k[sel], weights=(v - vm[k[sel]]) ** 2, minlength=len(ids))
+    noise = n * ss / np.maximum(n - 1, 1) / ha ** 2
     return {"volume_m3_ha": vol / ha, "basal_area_m2_ha": ba / ha, "trees_ha": n / ha,
+            "sampling_var_m3_ha": noise,
             "n_trees": n.astype(float), "mean_ht": mh,
             "unmatched_trees": int((~sel).sum())}

@@ -1,7 +1,8 @@
 """Plot-level models and stand estimates with their intervals.
 
 Area-based approach (ABA): ordinary least squares of a plot figure (volume m³/ha, basal area
-m²/ha) on at most three of the height metrics :data:`CANDIDATES`, in one of two forms,
+m²/ha) on one height metric (:data:`HEIGHTS`), then optionally one canopy density metric
+(:data:`DENSITIES`), then one height spread (:data:`SPREADS`), in one of two forms,
 
 * ``linear``: ``Y = b0 + Σ bk Xk``;
 * ``loglog``: ``ln Y = b0 + Σ bk ln Xk``, back-transformed with ``exp(s²/2)`` (Baskerville);
@@ -18,8 +19,10 @@ size). Their 95 % interval ``estimate ± t(0.975, n - p - 1) · sqrt(V_boot + σ
 refitted on each, :data:`BOOTSTRAP` resamples; the variance of a normal with their central 95 %
 range, robust to the wild refits of resamples of few distinct plots; inflated by
 ``n / (n - p - 1)``), ``σ²_stand``
-the between-stand variance of the plots' leave-one-out residuals (one-way random effects,
-stands holding two plots or more) plus the residual variance over the stand's cells.
+the variance of a stand's departure from the model (:func:`stand_variance`: the between-stand
+variance of the plots' leave-one-out residuals, or what their mean square holds beyond the
+plots' own sampling variance computed from their trees, the larger) plus the residual variance
+over the stand's cells.
 """
 from __future__ import annotations
 
@@ -30,12 +33,19 @@ import numpy as np
 
 from ..errors import InputError
 
-#: the metrics a model may take
-CANDIDATES = ("zq95", "zq75", "zq50", "zmean", "zmax", "zsd", "cover", "pzabovezmean", "zL2")
+#: the metrics a model may take: one of the heights, then one of the canopy densities, then
+#: one of the height spreads (a model of k metrics takes the first k groups)
+HEIGHTS = ("zq95", "zq75", "zq50", "zmean", "zmax")
+DENSITIES = ("cover", "pzabovezmean")
+SPREADS = ("zsd", "zL2")
+CANDIDATES = HEIGHTS + DENSITIES + SPREADS
 FORMS = ("linear", "loglog")
 #: a model with one more metric must lower the leave-one-out RMSE by this fraction
 PARSIMONY = 0.02
 MAX_PREDICTORS = 3
+#: what the choice minimises: the plots' leave-one-out RMSE of relative errors ((pred - y) / y),
+#: so that young stands weigh as much as old ones in a stand's relative error
+SCORE = "loo_rel_rmse_pct"
 MIN_PLOTS = 5
 BOOTSTRAP = 400
 
@@ -141,15 +151,25 @@ def fit_stats(y, fit, loo, p: int) -> dict:
     r2 = 1 - float(np.sum((y - fit) ** 2)) / ss if ss > 0 else float("nan")
     rmse = float(np.sqrt(np.mean((y - fit) ** 2)))
     loo_rmse = float(np.sqrt(np.mean((y - loo) ** 2)))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rel = float(np.sqrt(np.mean(((loo - y) / y) ** 2)))
     return {"r2": r2, "adj_r2": 1 - (1 - r2) * (n - 1) / max(n - p - 1, 1),
+            "loo_rel_rmse_pct": 100 * rel,
             "rmse": rmse, "rmse_pct": 100 * rmse / mean, "bias": float(np.mean(fit - y)),
             "bias_pct": 100 * float(np.mean(fit - y)) / mean, "loo_rmse": loo_rmse,
             "loo_rmse_pct": 100 * loo_rmse / mean, "loo_bias": float(np.mean(loo - y)),
             "loo_r2": 1 - float(np.sum((y - loo) ** 2)) / ss if ss > 0 else float("nan")}
 
 
-def select_model(metrics: dict, y, target: str = "volume_m3_ha", *,
-                 candidates=CANDIDATES, forms=FORMS) -> tuple:
+def candidate_sets(k: int) -> list:
+    """The metric combinations of ``k`` metrics: a height, then a density, then a spread (a
+    stand's volume grows with its height and with how much of it is covered; a free choice
+    among all pairs of 8 plots picked unstable pairs that extrapolated badly)."""
+    groups = (HEIGHTS, DENSITIES, SPREADS)[:k]
+    return list(itertools.product(*groups))
+
+
+def select_model(metrics: dict, y, target: str = "volume_m3_ha", *, forms=FORMS) -> tuple:
     """The model chosen by leave-one-out RMSE (see the module doc): ``(model, table)``, the
     table the best model of each size and form with its LOO RMSE."""
     y = np.asarray(y, float)
@@ -158,23 +178,24 @@ def select_model(metrics: dict, y, target: str = "volume_m3_ha", *,
     best_by_size, table = {}, []
     for k in range(1, pmax + 1):
         for form in forms:
-            for combo in itertools.combinations(candidates, k):
+            for combo in candidate_sets(k):
                 m = fit_form(metrics, y, combo, form, target)
                 if m is None:
                     continue
                 cur = best_by_size.get(k)
-                if cur is None or m.stats["loo_rmse"] < cur.stats["loo_rmse"]:
+                if cur is None or m.stats[SCORE] < cur.stats[SCORE]:
                     best_by_size[k] = m
         if k in best_by_size:
             b = best_by_size[k]
             table.append({"predictors": list(b.predictors), "form": b.form,
-                          "loo_rmse_pct": round(b.stats["loo_rmse_pct"], 3)})
+                          "loo_rmse_pct": round(b.stats["loo_rmse_pct"], 3),
+                          "loo_rel_rmse_pct": round(b.stats["loo_rel_rmse_pct"], 3)})
     if not best_by_size:
         raise InputError(f"PLOTS: no model could be fitted on the {y.size} plots (the metrics "
                          "do not vary between them?)")
     chosen = best_by_size[min(best_by_size)]
     for k in sorted(best_by_size)[1:]:
-        if best_by_size[k].stats["loo_rmse"] < chosen.stats["loo_rmse"] * (1 - PARSIMONY):
+        if best_by_size[k].stats[SCORE] < chosen.stats[SCORE] * (1 - PARSIMONY):
             chosen = best_by_size[k]
     return chosen, table
 
@@ -219,8 +240,20 @@ def t975(dof: int) -> float:
     return float(stats.t.ppf(0.975, max(dof, 1)))
 
 
+def stand_variance(resid_loo, plot_stand, plot_noise=None) -> float:
+    """The variance of a stand's departure from the model: the between-stand variance of the
+    plots' leave-one-out residuals (:func:`between_variance`), or, when larger, what their mean
+    square holds beyond the plots' own sampling variance (``plot_noise``, from each plot's
+    trees): a misfit of the model that the plots show but the stands cannot be told apart by."""
+    s2 = between_variance(resid_loo, plot_stand)
+    if plot_noise is not None:
+        s2 = max(s2, float(np.mean(np.asarray(resid_loo) ** 2) - np.mean(plot_noise)))
+    return s2
+
+
 def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_stand,
-               n_stands: int, plot_stand, *, resamples: int = BOOTSTRAP, seed: int = 0) -> dict:
+               n_stands: int, plot_stand, *, plot_noise=None, resamples: int = BOOTSTRAP,
+               seed: int = 0) -> dict:
     """Each stand's mean of the cell predictions and its 95 % interval (module doc).
 
     Returns ``estimate``, ``low``, ``high``, ``se``, ``cells`` (per stand), ``sigma2_stand``,
@@ -250,7 +283,7 @@ def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_
         reps.append(_stand_means(pred, cell_stand, n_stands)[0])
     v_boot = boot_variance(reps, n_stands) * n / max(n - p - 1, 1)
     resid = y - model.stats["loo"]
-    s2_b = between_variance(resid, plot_stand)
+    s2_b = stand_variance(resid, plot_stand, plot_noise)
     s2_cells = float(np.mean(resid ** 2))
     with np.errstate(invalid="ignore", divide="ignore"):
         se = np.sqrt(v_boot + s2_b + s2_cells / np.maximum(cells, 1))
@@ -273,8 +306,8 @@ def fit_dap_height(dap, ht) -> tuple:
     return float(coef[0]), float(coef[1]), s2, int(ok.sum())
 
 
-def ratio_stands(field_v, lidar_v, stand_lidar_v, plot_stand, *, resamples: int = BOOTSTRAP,
-                 seed: int = 0) -> dict:
+def ratio_stands(field_v, lidar_v, stand_lidar_v, plot_stand, *, plot_noise=None,
+                 resamples: int = BOOTSTRAP, seed: int = 0) -> dict:
     """Tree approach: each stand's detected trees' volume per ha times the ratio ``R = Σ
     field / Σ detected`` over the plots (missed trees and the DAP model's bias), with the
     interval of :func:`aba_stands` (bootstrap of R over the plots, between-stand variance of
@@ -297,7 +330,7 @@ def ratio_stands(field_v, lidar_v, stand_lidar_v, plot_stand, *, resamples: int 
     # leave-one-out ratio predictions of each plot
     loo = np.array([(f.sum() - f[i]) / max(d.sum() - d[i], 1e-9) * d[i] for i in range(n)])
     resid = f - loo
-    s2_b = between_variance(resid, plot_stand)
+    s2_b = stand_variance(resid, plot_stand, plot_noise)
     with np.errstate(invalid="ignore"):
         se = np.sqrt(v_r * n / max(n - 1, 1) * sv ** 2 + s2_b)
     t = t975(n - 1)

@@ -160,9 +160,10 @@ def _aba(pm, figures, cm, cell_stand, n_stands, plot_stand, options) -> dict:
             continue
         y = figures[target]
         model, table = select_model(pm, y, target)
+        noise = figures.get("sampling_var_m3_ha") if key == "volume" else None
         out[key] = (model, table, aba_stands(model, pm, y, cm, cell_stand, n_stands,
-                                             plot_stand, resamples=options.resamples,
-                                             seed=options.seed))
+                                             plot_stand, plot_noise=noise,
+                                             resamples=options.resamples, seed=options.seed))
     return out
 
 
@@ -231,6 +232,7 @@ def volume_run(input, plots, output, *, stands, trees_table=None, plot_id=None,
                                    SubProgress(prog, 0.6, 0.9))
         res_trees["stands"] = ratio_stands(y, res_trees["detected_m3_ha"],
                                            res_trees["stand_detected_m3_ha"], plot_stand,
+                                           plot_noise=meas["figures"].get("sampling_var_m3_ha"),
                                            resamples=options.resamples, seed=options.seed)
     prog.update(0.92, "writing")
     layers, report, vol_grid = outs.build(area, pl, st, meas, pm, plot_stand, res_aba, res_trees,
