@@ -17,7 +17,8 @@ import numpy as np
 
 from .grid import GridSpec
 
-__all__ = ["canopy_height", "find_trees", "classify_ground", "point_info", "raster_profile"]
+__all__ = ["canopy_height", "find_trees", "classify_ground", "point_info", "raster_profile",
+           "metrics", "volume"]
 
 
 def raster_profile(spec: GridSpec, dtype="float32", nodata=float("nan")) -> dict:
@@ -124,3 +125,84 @@ def classify_ground(input, *, params=None, a_srs=None, t_srs=None, progress=None
 
     src = ReadOptions(a_srs=a_srs, t_srs=t_srs, **read_kw).open(input, filtered=False)
     return ground_points(src, params, progress)
+
+
+def metrics(input, output=None, *, res=20.0, plots=None, plot_id=None, plot_radius=None,
+            stands=None, stand_id=None, min_height=2.0, returns="all", dtm="auto",
+            drop_class=(7, 18), keep_class=None, a_srs=None, t_srs=None, tile_size=None,
+            workers=None, overwrite=False, progress=None, **read_kw):
+    """The standard height metrics (lidR's ``.stdmetrics_z``, FUSION's L-moments and cover;
+    :mod:`lidartrees_gis.inventory.metrics`) per cell of ``res`` m, or per plot and stand
+    (``lidartrees metrics``).
+
+    Without ``output`` nothing is written: the result holds ``grid`` = ``(GridSpec, (bands,
+    rows, cols) array)`` (bands in the order of
+    :data:`~lidartrees_gis.inventory.metrics.METRICS`) or ``layers`` = ``{"plot_metrics":
+    GeoDataFrame, "stand_metrics": GeoDataFrame}``. With ``output`` (``.tif`` or ``.gpkg``)
+    they are written there too.
+    """
+    from .als.surfaces import SurfaceOptions
+    from .catalog.catalog import TilingOptions
+    from .inventory.chain import metrics_run
+    from .inventory.tiles import MetricOptions
+    from .io.options import ReadOptions
+    from .io.output import OutputOptions
+
+    return metrics_run(input, output, res=res, plots=plots, plot_id=plot_id,
+                       plot_radius=plot_radius, stands=stands, stand_id=stand_id,
+                       options=MetricOptions(min_height=min_height, returns=returns),
+                       surface=SurfaceOptions(dtm=dtm, chm="max", fill="none", outliers=False),
+                       read=ReadOptions(a_srs=a_srs, t_srs=t_srs, drop_class=drop_class,
+                                        keep_class=keep_class, **read_kw),
+                       tiling=TilingOptions(tile_size=tile_size, workers=workers),
+                       out=OutputOptions(overwrite=overwrite), progress=progress)
+
+
+def volume(input, plots, output=None, *, stands, trees_table=None, plot_id=None,
+           plot_radius=None, stand_id=None, volume_equation=None, approach="aba", res="auto",
+           min_height=2.0, returns="all", dtm="auto", resamples=400, drop_class=(7, 18),
+           keep_class=None, a_srs=None, t_srs=None, tile_size=None, workers=None,
+           overwrite=False, progress=None, **read_kw):
+    """Wood volume per stand from points and field plots (``lidartrees volume``;
+    docs/VOLUME.md).
+
+    Parameters
+    ----------
+    plots : str, Path or GeoDataFrame
+        Plot polygons, or plot centres with ``plot_radius``.
+    stands : str, Path or GeoDataFrame
+        Stand polygons.
+    trees_table : str or Path, optional
+        The plots' measured trees (``parcela;arvore;dap;ht``, pt-BR or English).
+    volume_equation : str or (b0, b1, b2), optional
+        Schumacher-Hall ``V = b0·DAP^b1·HT^b2``.
+    approach : {"aba", "trees", "both"}
+
+    Returns
+    -------
+    dict with ``layers`` (``plots``, ``stands``, and ``tree_tops`` for the tree approach:
+    GeoDataFrames), ``report`` (the model report), ``volume_grid`` ``(GridSpec, m³/ha
+    array)``; with ``output`` (a ``.gpkg``) everything is also written (the raster and the
+    report beside it).
+    """
+    from .als.surfaces import SurfaceOptions
+    from .catalog.catalog import TilingOptions
+    from .inventory.field import Equation
+    from .inventory.tiles import MetricOptions
+    from .inventory.volume import VolumeOptions, volume_run
+    from .io.options import ReadOptions
+    from .io.output import OutputOptions
+
+    eq = volume_equation
+    if eq is not None and not isinstance(eq, Equation):
+        eq = Equation.parse(eq if isinstance(eq, str) else ",".join(map(str, eq)))
+    return volume_run(input, plots, output, stands=stands, trees_table=trees_table,
+                      plot_id=plot_id, plot_radius=plot_radius, stand_id=stand_id,
+                      options=VolumeOptions(approach=approach, equation=eq, res=res,
+                                            resamples=resamples),
+                      metric=MetricOptions(min_height=min_height, returns=returns),
+                      surface=SurfaceOptions(dtm=dtm, chm="max", fill="none", outliers=False),
+                      read=ReadOptions(a_srs=a_srs, t_srs=t_srs, drop_class=drop_class,
+                                       keep_class=keep_class, **read_kw),
+                      tiling=TilingOptions(tile_size=tile_size, workers=workers),
+                      out=OutputOptions(overwrite=overwrite), progress=progress)

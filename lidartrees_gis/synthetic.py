@@ -145,3 +145,164 @@ def write_truth_csv(path, truth: dict) -> None:
         for i in range(len(truth["tree_id"])):
             fh.write(",".join(f"{truth[c][i]:.3f}" if c != "tree_id" else str(int(truth[c][i]))
                               for c in cols) + "\n")
+
+
+# ---------------------------------------------------------------------------------------------
+# a farm of clonal stands with stems (DAP, volume) and field plots: the volume command's truth
+
+#: Schumacher-Hall coefficients of the generated clones: V = b0 DAP^b1 HT^b2 (DAP cm, HT m, m³)
+SCHUMACHER = (0.000049, 1.85, 1.05)
+
+
+@dataclass(frozen=True)
+class FarmParams:
+    """A farm of ``cols x rows`` square stands of ``side`` m (heights above flat ground).
+
+    Each stand has its own mean height (uniform in ``heights``), its own site factor of the
+    DAP-height relation (``DAP = site 0.9 H^0.91 exp(N(0, dap_cv))``, site log-normal with
+    ``site_cv``), ``missing`` planting positions empty and ``suppressed`` holding a tree of
+    0.5-0.8 of the stand's height. Crowns are paraboloids of radius ``0.35 + 0.055 H`` and depth
+    ``0.45 H``; a pulse returns from the highest crown above it, or (``gap``) from the ground.
+    """
+
+    cols: int = 3
+    rows: int = 2
+    side: float = 280.0
+    row_spacing: float = 3.0
+    tree_spacing: float = 2.0
+    heights: tuple = (14.0, 30.0)
+    height_cv: float = 0.08
+    dap_cv: float = 0.08
+    site_cv: float = 0.0
+    missing: float = 0.04
+    suppressed: float = 0.05
+    density: float = 8.0
+    gap: float = 0.12
+    origin: tuple = (412000.0, 7952000.0)
+    seed: int = 0
+
+
+def _farm_trees(p: FarmParams, rng) -> dict:
+    """Every tree: x, y, stand, height, DAP, volume."""
+    xs = np.arange(p.row_spacing / 2, p.cols * p.side, p.row_spacing)
+    ys = np.arange(p.tree_spacing / 2, p.rows * p.side, p.tree_spacing)
+    gx, gy = np.meshgrid(xs, ys)
+    x = gx.ravel() + rng.normal(0, 0.1, gx.size)
+    y = gy.ravel() + rng.normal(0, 0.1, gx.size)
+    stand = (np.floor(y / p.side) * p.cols + np.floor(x / p.side)).astype(int)
+    ns = p.cols * p.rows
+    top = rng.uniform(*p.heights, ns)
+    site = np.exp(rng.normal(0, p.site_cv, ns)) if p.site_cv > 0 else np.ones(ns)
+    r = rng.random(x.size)
+    keep = r >= p.missing
+    supp = r < p.missing + p.suppressed
+    h = top[stand] * np.exp(rng.normal(0, p.height_cv, x.size))
+    h = np.where(supp, top[stand] * rng.uniform(0.5, 0.8, x.size), h)
+    dap = site[stand] * 0.9 * h ** 0.91 * np.exp(rng.normal(0, p.dap_cv, x.size))
+    b0, b1, b2 = SCHUMACHER
+    vol = b0 * dap ** b1 * h ** b2
+    k = keep
+    return {"x": x[k] + p.origin[0], "y": y[k] + p.origin[1], "stand": stand[k], "height": h[k],
+            "dap": dap[k], "volume": vol[k], "crown_radius": 0.35 + 0.055 * h[k],
+            "stand_height": top, "site": site}
+
+
+def make_farm(params: FarmParams | None = None):
+    """Points (heights above a flat ground at z = 0, ground returns class 2) and the truth.
+
+    Returns
+    -------
+    points : PointChunk
+    truth : dict
+        ``trees`` (x, y, stand, height, dap, volume), ``stands``: per stand ``box`` (xmin,
+        ymin, xmax, ymax), ``volume_m3_ha``, ``basal_area_m2_ha``, ``area_ha``.
+    """
+    from scipy.spatial import cKDTree
+
+    p = params or FarmParams()
+    rng = np.random.default_rng(p.seed)
+    t = _farm_trees(p, rng)
+    w, h = p.cols * p.side, p.rows * p.side
+    n = rng.poisson(p.density * w * h)
+    px = p.origin[0] + rng.random(n) * w
+    py = p.origin[1] + rng.random(n) * h
+    kd = cKDTree(np.column_stack([t["x"], t["y"]]))
+    rmax = float(t["crown_radius"].max())
+    best = np.full(n, np.nan)
+    for lo in range(0, n, 1_000_000):  # bounded memory
+        sl = slice(lo, min(n, lo + 1_000_000))
+        dist, idx = kd.query(np.column_stack([px[sl], py[sl]]), k=8, distance_upper_bound=rmax)
+        ok = np.isfinite(dist)
+        ii = np.where(ok, idx, 0)
+        top, rad = t["height"][ii], t["crown_radius"][ii]
+        q = (np.where(ok, dist, np.inf) / rad) ** 2
+        s = np.where(q <= 1.0, top - 0.45 * top * q, np.nan)
+        best[sl] = np.nanmax(np.where(np.isfinite(s), s, -np.inf), axis=1)
+    best[~np.isfinite(best)] = np.nan
+    ground = np.isnan(best) | (rng.random(n) < p.gap)
+    pz = np.where(ground, 0.0, best) + rng.normal(0, 0.03, n)
+    cls = np.where(ground, 2, 1).astype(np.uint8)
+    ns = p.cols * p.rows
+    area_ha = p.side * p.side / 1e4
+    vol = np.bincount(t["stand"], weights=t["volume"], minlength=ns) / area_ha
+    ba = np.bincount(t["stand"], weights=np.pi * (t["dap"] / 200) ** 2, minlength=ns) / area_ha
+    boxes = [(p.origin[0] + (k % p.cols) * p.side, p.origin[1] + (k // p.cols) * p.side,
+              p.origin[0] + (k % p.cols + 1) * p.side, p.origin[1] + (k // p.cols + 1) * p.side)
+             for k in range(ns)]
+    truth = {"trees": t, "stands": {"box": boxes, "volume_m3_ha": vol, "basal_area_m2_ha": ba,
+                                    "area_ha": np.full(ns, area_ha)}}
+    return PointChunk(px, py, pz, classification=cls,
+                      return_number=np.ones(n, np.uint8)), truth
+
+
+def farm_plots(params: FarmParams, per_ha: float = 1 / 6.0, radius: float = 11.28,
+               seed: int = 0, min_per_stand: int = 1) -> tuple:
+    """Circular plot centres: ``min_per_stand`` in every stand, the rest (to one per
+    ``1 / per_ha`` ha) in stands drawn at random, each at least ``radius + 2`` m inside its
+    stand. Returns ``(x, y, stand)``."""
+    rng = np.random.default_rng(seed)
+    p = params
+    ns = p.cols * p.rows
+    total = max(ns * min_per_stand, int(round(ns * p.side * p.side / 1e4 * per_ha)))
+    stands = np.r_[np.repeat(np.arange(ns), min_per_stand),
+                   rng.integers(0, ns, total - ns * min_per_stand)]
+    m = radius + 2.0
+    x, y = np.empty(stands.size), np.empty(stands.size)
+    for i, k in enumerate(stands):  # plots do not overlap (2 radii and 5 m apart)
+        for _ in range(1000):
+            x[i] = p.origin[0] + (k % p.cols) * p.side + rng.uniform(m, p.side - m)
+            y[i] = p.origin[1] + (k // p.cols) * p.side + rng.uniform(m, p.side - m)
+            if i == 0 or np.min(np.hypot(x[:i] - x[i], y[:i] - y[i])) > 2 * radius + 5:
+                break
+    return x, y, stands
+
+
+def plot_trees(truth: dict, x, y, radius: float = 11.28, ht_share: float = 1.0,
+               seed: int = 0) -> dict:
+    """The field trees of circular plots: ``parcela, arvore, dap, ht`` (HT measured on
+    ``ht_share`` of the trees, NaN for the others), as a crew measures them (DAP to 0.1 cm,
+    HT to 0.1 m)."""
+    from scipy.spatial import cKDTree
+
+    rng = np.random.default_rng(seed)
+    t = truth["trees"]
+    kd = cKDTree(np.column_stack([t["x"], t["y"]]))
+    rows = {"parcela": [], "arvore": [], "dap": [], "ht": []}
+    for k, (cx, cy) in enumerate(zip(x, y)):
+        idx = np.asarray(sorted(kd.query_ball_point([cx, cy], radius)), int)
+        rows["parcela"] += [k + 1] * idx.size
+        rows["arvore"] += list(range(1, idx.size + 1))
+        rows["dap"] += list(np.round(t["dap"][idx], 1))
+        ht = np.round(t["height"][idx], 1)
+        rows["ht"] += list(np.where(rng.random(idx.size) < ht_share, ht, np.nan))
+    return {k: np.asarray(v) for k, v in rows.items()}
+
+
+def write_trees_ptbr(path, rows: dict) -> None:
+    """The field trees as a pt-BR spreadsheet exports them: ``;`` and a decimal comma."""
+    with open(path, "w", encoding="cp1252", newline="\n") as fh:
+        fh.write("parcela;arvore;dap;ht\n")
+        for i in range(len(rows["parcela"])):
+            ht = "" if not np.isfinite(rows["ht"][i]) else f"{rows['ht'][i]:.1f}".replace(".", ",")
+            fh.write(f"{int(rows['parcela'][i])};{int(rows['arvore'][i])};"
+                     f"{rows['dap'][i]:.1f}".replace(".", ",") + f";{ht}\n")

@@ -41,7 +41,7 @@ STYLES = {("chm", "output"): "chm.qml", ("chm", "dtm_out"): "dtm_hillshade.qml",
           ("trees", "chm_out"): "chm.qml", ("grid", "output"): None}
 #: commands whose INPUT can also be a point-cloud layer loaded in QGIS (INPUT_LAYER)
 LAYER_INPUT = ("info", "grid", "chm", "trees", "compare", "ground", "dtm-quality", "stem",
-               "profile")
+               "profile", "metrics", "volume")
 #: LAS/LAZ outputs (the default extension of a temporary output is the first one)
 LAS_OUTPUTS = {("ground", "output"), ("profile", "output")}
 GPKG_LAYERS = (("tree_tops", "tree_tops.qml"), ("crowns", "crowns.qml"))
@@ -202,7 +202,7 @@ def _output_kind(cmd_name, p):
         return "json"
     if p.name in ("csv", "stand_csv") or cmd_name == "compare":
         return "csv"
-    if cmd_name == "trees" and p.name == "output":
+    if cmd_name in ("trees", "volume") and p.name == "output":
         return "gpkg"
     return "raster"
 
@@ -325,10 +325,10 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
                                                 defaultValue=p.default, optional=optional)
         if p.kind == "crs":
             return QgsProcessingParameterCrs(pid, label, optional=True)
-        if p.kind == "vector":
-            return QgsProcessingParameterVectorLayer(pid, label,
-                                                     [QgsProcessing.TypeVectorPolygon],
-                                                     optional=True)
+        if p.kind == "vector":  # plots may be centres (points) with a radius
+            types = [QgsProcessing.TypeVectorAnyGeometry if p.name == "plots"
+                     else QgsProcessing.TypeVectorPolygon]
+            return QgsProcessingParameterVectorLayer(pid, label, types, optional=optional)
         if p.kind == "res":
             return QgsProcessingParameterString(pid, tr("Cell size (m), or auto"),
                                                 optional=not p.required)
@@ -463,6 +463,24 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
                     _KEEP.append(post)
                     details.setPostProcessor(post)
                 context.addLayerToLoadOnCompletion(uri, details)
+            return
+        if self._name == "volume" and p.name == "output":
+            for layer, qml in (("stands", "volume_stands.qml"), ("plots", None)):
+                details = QgsProcessingContext.LayerDetails(layer, context.project(), layer)
+                if sdir and qml:
+                    post = _Style(os.path.join(sdir, qml))
+                    _KEEP.append(post)
+                    details.setPostProcessor(post)
+                context.addLayerToLoadOnCompletion(f"{path}|layername={layer}", details)
+            raster = os.path.splitext(path)[0] + "_volume.tif"  # inventory.volume.side_outputs
+            if os.path.exists(raster):
+                details = QgsProcessingContext.LayerDetails("volume (m³/ha)", context.project(),
+                                                            "volume")
+                if sdir:
+                    post = _Style(os.path.join(sdir, "volume.qml"))
+                    _KEEP.append(post)
+                    details.setPostProcessor(post)
+                context.addLayerToLoadOnCompletion(raster, details)
             return
         if context.willLoadLayerOnCompletion(path):  # named after its file, not the label
             context.layerToLoadOnCompletionDetails(path).name = \

@@ -37,6 +37,13 @@ REFERENCES = {
     "stem": "Buck, A. L. B. et al. (2014), Dmax filter for trunk points of Pinus in TLS clouds.",
     "profile": ("Queiroz (2017), vertical segmentation of mangrove trees into roots, stem and "
                 "canopy from the point-density profile."),
+    "metrics": "lidR's stdmetrics_z (Roussel, J.-R. et al. (2020), lidR, Remote Sensing of "
+               "Environment 251, 112061); FUSION's L-moments and cover (McGaughey, R. J., "
+               "FUSION/LDV manual). Definitions: docs/VOLUME.md.",
+    "volume": "Area-based approach (Næsset, E. (2002), Remote Sensing of Environment 80, "
+              "88-99); Schumacher, F. X. & Hall, F. S. (1933) volume equation; eucalyptus "
+              "plantations: Silva, C. A. et al. (2016), Forestry. Model form, intervals and "
+              "limits: docs/VOLUME.md.",
 }
 
 #: readable labels for parameters whose help text is too long to be one

@@ -119,9 +119,74 @@ def stands_style(out):
     lyr.saveNamedStyle(str(out))
 
 
+#: wood volume classes (m³/ha) and colours (ColorBrewer YlOrBr): the volume raster and stands
+VOLUME_BREAKS = [0, 100, 200, 300, 400, 500, 600, 2000]
+VOLUME_COLOURS = ["#ffffd4", "#fee391", "#fec44f", "#fe9929", "#ec7014", "#cc4c02", "#8c2d04"]
+
+
+def volume_style(path, out):
+    """The volume raster (m³/ha) in 100 m³/ha classes."""
+    lyr = QgsRasterLayer(str(path), "volume")
+    shader = QgsRasterShader()
+    fn = QgsColorRampShader(0.0, 700.0)
+    fn.setColorRampType(QgsColorRampShader.Discrete)
+    lows, highs = VOLUME_BREAKS[:-1], VOLUME_BREAKS[1:]
+    fn.setColorRampItemList([QgsColorRampShader.ColorRampItem(
+        hi, QColor(c), f"{lo:g} - {hi:g} m³/ha" if hi < 2000 else f"> {lo:g} m³/ha")
+        for lo, hi, c in zip(lows, highs, VOLUME_COLOURS)])
+    shader.setRasterShaderFunction(fn)
+    rend = QgsSingleBandPseudoColorRenderer(lyr.dataProvider(), 1, shader)
+    rend.setClassificationMin(0.0)
+    rend.setClassificationMax(700.0)
+    lyr.setRenderer(rend)
+    lyr.saveNamedStyle(str(out))
+
+
+def volume_stands_style(out):
+    """Stands of the volume command: filled by volume_m3_ha, labelled with the stand id, its
+    volume and the 95 % interval."""
+    from qgis.core import (QgsPalLayerSettings, QgsTextBufferSettings, QgsTextFormat,
+                           QgsVectorLayerSimpleLabeling)
+
+    lyr = QgsVectorLayer("Polygon?field=stand_id:string&field=volume_m3_ha:double"
+                         "&field=volume_m3_ha_low:double&field=volume_m3_ha_high:double",
+                         "stands", "memory")
+    graduated(lyr, "volume_m3_ha", lambda c: QgsFillSymbol.createSimple(
+        {"color": c, "outline_color": "#252525", "outline_width": "0.6"}), VOLUME_BREAKS,
+        VOLUME_COLOURS)
+    pal = QgsPalLayerSettings()
+    pal.isExpression = True
+    pal.fieldName = ("\"stand_id\" || '\\n' || format_number(\"volume_m3_ha\", 0) || ' m³/ha ("
+                     "' || format_number(\"volume_m3_ha_low\", 0) || '-' || "
+                     "format_number(\"volume_m3_ha_high\", 0) || ')'")
+    fmt = QgsTextFormat()
+    fmt.setSize(9)
+    buf = QgsTextBufferSettings()
+    buf.setEnabled(True)
+    buf.setColor(QColor("#ffffff"))
+    fmt.setBuffer(buf)
+    pal.setFormat(fmt)
+    lyr.setLabeling(QgsVectorLayerSimpleLabeling(pal))
+    lyr.setLabelsEnabled(True)
+    lyr.saveNamedStyle(str(out))
+
+
+def volume_styles():
+    """Only the volume command's styles (``make_styles.py volume``)."""
+    with tempfile.TemporaryDirectory() as d:
+        tif = Path(d) / "t.tif"
+        tiny_raster(tif)
+        volume_style(tif, HERE / "volume.qml")
+    volume_stands_style(HERE / "volume_stands.qml")
+
+
 def main():
     app = QgsApplication([], False)
     app.initQgis()
+    if sys.argv[1:] == ["volume"]:
+        volume_styles()
+        app.exitQgis()
+        return 0
     with tempfile.TemporaryDirectory() as d:
         tif = Path(d) / "t.tif"
         tiny_raster(tif)
@@ -161,6 +226,7 @@ def main():
         QgsRendererCategory("uncertain", uncertain, "uncertain (field check)")]))
     gaps.saveNamedStyle(str(HERE / "gaps.qml"))
     stands_style(HERE / "stands.qml")
+    volume_styles()
     app.exitQgis()
     print("styles written to", HERE)
 

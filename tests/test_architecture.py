@@ -21,8 +21,10 @@ ROOMS = {
     "tls": ("core", "io", "report"),
     "als": ("core", "io", "catalog", "report", "ground"),
     "synthetic": ("core", "io"),
+    "inventory": ("core", "io", "catalog", "report", "ground", "als"),
     # the adapters on top: the command line, the Python API, the demo and the fuzzer
-    "top": ("core", "io", "catalog", "report", "ground", "tls", "als", "synthetic"),
+    "top": ("core", "io", "catalog", "report", "ground", "tls", "als", "synthetic",
+            "inventory"),
 }
 CORE = {"errors", "progress", "crs", "grid", "tin", "_accel", "_raster", "_version"}
 
@@ -39,7 +41,8 @@ def _room(module: str) -> str:
         return "top"  # the package itself: the Python API's facade
     if parts[0] in CORE:
         return "core"
-    if parts[0] in ("io", "catalog", "report", "ground", "tls", "als", "synthetic"):
+    if parts[0] in ("io", "catalog", "report", "ground", "tls", "als", "synthetic",
+                    "inventory"):
         return parts[0]
     return "top"  # cli, api, demo, fuzz
 

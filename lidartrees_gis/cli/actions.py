@@ -210,3 +210,56 @@ def demo(outdir=None, **kw):
 
     return run_demo(outdir or "lidartrees_demo", overwrite=bool(kw.get("overwrite")),
                     progress=kw.get("progress"))
+
+
+def _metric_options(kw):
+    from ..inventory.tiles import MetricOptions
+
+    mh = kw.get("min_height")
+    mh = 2.0 if mh in (None, "") else None if str(mh).strip().lower() == "none" else \
+        _number({"min_height": str(mh).replace(",", ".")}, "min_height")
+    return MetricOptions(min_height=mh, returns=kw.get("returns") or "all")
+
+
+def _metric_surface(kw):
+    from ..als.surfaces import SurfaceOptions
+
+    return SurfaceOptions(dtm=kw.get("dtm") or "auto", chm="max", fill="none", outliers=False)
+
+
+def metrics(input, output, **kw):
+    from ..inventory.chain import metrics_run
+
+    res = _number(kw, "res")
+    r = metrics_run(input, output, res=20.0 if res is None else res, plots=kw.get("plots"),
+                    plot_id=kw.get("plot_id"), plot_radius=_number(kw, "plot_radius"),
+                    stands=kw.get("stands"), stand_id=kw.get("stand_id"),
+                    options=_metric_options(kw), surface=_metric_surface(kw), read=_read(kw),
+                    tiling=_tiling(kw), out=_out(kw), progress=kw.get("progress"))
+    return {k: v for k, v in r.items() if k not in ("grid", "layers")}
+
+
+def volume(input, plots, output, **kw):
+    from ..inventory.field import Equation
+    from ..inventory.volume import VolumeOptions, volume_run
+
+    eq = kw.get("volume_equation")
+    n = _number(kw, "resamples", int)
+    opts = VolumeOptions(approach=kw.get("approach") or "aba",
+                         equation=Equation.parse(eq) if eq not in (None, "") else None,
+                         res=kw.get("res") or "auto", resamples=400 if n is None else n)
+    r = volume_run(input, plots, output, stands=kw.get("stands"),
+                   trees_table=kw.get("trees_table") or None, plot_id=kw.get("plot_id"),
+                   plot_radius=_number(kw, "plot_radius"), stand_id=kw.get("stand_id"),
+                   options=opts, metric=_metric_options(kw), surface=_metric_surface(kw),
+                   read=_read(kw), tiling=_tiling(kw), out=_out(kw), progress=kw.get("progress"))
+    rep = r["report"]
+    out = {k: v for k, v in r.items() if k not in ("layers", "volume_grid", "report")}
+    for key in ("volume_model", "basal_area_model"):
+        if key in rep:
+            m = rep[key]
+            out[key] = f"{m['equation']} (R² {m['r2']:.3f}, RMSE {m['rmse_pct']:.1f} %, LOO " \
+                       f"RMSE {m['loo_rmse_pct']:.1f} %)"
+    if "total_m3" in rep:
+        out["total_m3"] = round(rep["total_m3"], 1)
+    return out

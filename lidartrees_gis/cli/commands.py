@@ -170,6 +170,24 @@ KEEP_OUTLIERS = Param("keep_outliers", "bool", "Keep isolated returns far above 
                       "(birds, clouds, unclassified noise), which are removed by default",
                       flag="-keep_outliers", default=False, advanced=True)
 
+PLOT_PARAMS = (
+    Param("plots", "vector", "Field plots (parcelas): a polygon layer, or plot centres (points) "
+          "with -plot_radius, PATH or PATH:LAYER", flag="-plots"),
+    Param("plot_id", "str", "The plots' id field (default: the first of plot_id, parcela, "
+          "id_parcela, plot, id, name present; else 1, 2, ...)", flag="-plot_id",
+          advanced=True),
+    Param("plot_radius", "float", "Radius of circular plots given by their centres (11.28 m "
+          "for 400 m²)", flag="-plot_radius", unit="m"),
+)
+METRIC_PARAMS = (
+    Param("min_height", "str", "Metrics of the returns above this height (m); none = of every "
+          "return (lidR's pixel_metrics default); cover counts the first returns above it",
+          flag="-min_height", default="2"),
+    Param("returns", "choice", "Metrics of all returns or of the first returns",
+          flag="-returns", choices=("all", "first"), default="all"),
+    Param("dtm", "str", "Ground for the heights (see chm); none = heights already normalised",
+          flag="-dtm", default="auto", advanced=True),
+)
 
 COMMANDS = {
     "info": Command(
@@ -418,6 +436,51 @@ COMMANDS = {
                "positives, references outside it are left out", flag="-area"),
          Param("layer_options", "kv", TABLE_LCO, flag="-lco", advanced=True),
          OVERWRITE), "evaluate", outputs=("report",)),
+    "metrics": Command(
+        "metrics", "Inventory", "Standard height metrics (lidR .stdmetrics_z, FUSION L-moments "
+        "and cover) per cell (multi-band GeoTIFF) or per field plot and stand (GeoPackage)",
+        (INPUT, Param("output", "output", "Output: a .tif gets one named band a metric per "
+                      "cell; a .gpkg the layers plot_metrics and stand_metrics"),
+         Param("res", "float", "Metric cell size (use the plots' size for an area-based "
+               "model: 20 m for 400 m² plots)", flag="-tr", aliases=("--resolution",),
+               default=20.0, unit="m"),
+         *PLOT_PARAMS,
+         Param("stands", "vector", "Stand (talhão) polygons, PATH or PATH:LAYER", flag="-stands"),
+         Param("stand_id", "str", "The stands' id field (default: stand_id, talhao, ... or "
+               "numbered)", flag="-stand_id", advanced=True),
+         *METRIC_PARAMS,
+         *CLASSES, *(p for p in TILES if p.name in ("tile_size", "workers", "scheduler")),
+         *READ_GEO, CO, OVERWRITE), "metrics", outputs=("output",)),
+    "volume": Command(
+        "volume", "Inventory", "Wood volume per stand (m³/ha, m³, basal area) with 95 % "
+        "intervals, from LiDAR and field plots: area-based model and/or detected trees",
+        (INPUT, Param("plots", "vector", "Field plots (parcelas): a polygon layer, or plot "
+                      "centres (points) with -plot_radius; may carry volume_m3_ha when there "
+                      "is no tree table", required=True),
+         Param("output", "output", "Output GeoPackage (layers plots, stands, tree_tops); "
+               "OUT_volume.tif (m³/ha), OUT_report.json and OUT_report.png beside it"),
+         Param("stands", "vector", "Stand (talhão) polygons, PATH or PATH:LAYER",
+               flag="-stands", required=True),
+         Param("trees_table", "str", "Field trees table (CSV/TXT, pt-BR or English): plot "
+               "(parcela), tree (arvore), DAP cm (dap) or CAP cm (cap), HT m (ht, for all or "
+               "some trees), volume m³ (optional)", flag="-trees_table"),
+         *(p for p in PLOT_PARAMS if p.name != "plots"),
+         Param("stand_id", "str", "The stands' id field (default: stand_id, talhao, ... or "
+               "numbered)", flag="-stand_id", advanced=True),
+         Param("volume_equation", "str", "Schumacher-Hall coefficients b0,b1,b2 of V = "
+               "b0·DAP^b1·HT^b2 (DAP cm, HT m, V m³); default: fitted on the trees that "
+               "carry a volume", flag="-volume_equation"),
+         Param("approach", "choice", "aba = area-based model of the plots' height metrics; "
+               "trees = detected trees' volume from their heights, scaled by the plots; both",
+               flag="-approach", choices=("aba", "trees", "both"), default="aba"),
+         Param("res", "str", "Cell size of the wall-to-wall metrics: auto = the plots' size "
+               "(20 m for 400 m² plots)", flag="-tr", aliases=("--resolution",),
+               default="auto", unit="m"),
+         Param("resamples", "float", "Bootstrap resamples of the plots for the intervals",
+               flag="-resamples", default=400, advanced=True),
+         *METRIC_PARAMS, *CLASSES,
+         *(p for p in TILES if p.name in ("tile_size", "workers", "scheduler")),
+         *READ_GEO, CO, OVERWRITE), "volume", outputs=("output",)),
     "demo": Command(
         "demo", "Demo", "Generate a synthetic eucalyptus stand with known trees and process it",
         (Param("outdir", "outdir", "Output folder (default lidartrees_demo)", default=None,

@@ -74,8 +74,8 @@ def write_geotiff(path, array, spec, *, overwrite=False, nodata=NODATA, dtype="f
     Parameters
     ----------
     path : str or Path
-    array : (M, N) ndarray
-        NaN cells are written as ``nodata``.
+    array : (M, N) or (B, M, N) ndarray
+        NaN cells are written as ``nodata``; a 3-D array is written as B bands.
     spec : GridSpec
         Georeferencing (transform and CRS).
     overwrite : bool
@@ -85,11 +85,15 @@ def write_geotiff(path, array, spec, *, overwrite=False, nodata=NODATA, dtype="f
         ``OVERVIEWS=AUTO|NONE|FORCE`` (:func:`build_overviews`).
     tags : dict, optional
         Provenance tags (values are JSON-encoded when not strings).
+    description : str or list of str, optional
+        The band description (one per band for a 3-D array).
     """
     import rasterio
 
     arr = np.asarray(array)
-    if arr.shape != spec.shape:
+    if arr.ndim == 2:
+        arr = arr[None]
+    if arr.shape[1:] != spec.shape:
         raise InputError(f"array shape {arr.shape} does not match grid {spec.shape}")
     co = dict(DEFAULT_CO)
     co.update({k.upper(): v for k, v in (creation_options or {}).items()})
@@ -103,16 +107,18 @@ def write_geotiff(path, array, spec, *, overwrite=False, nodata=NODATA, dtype="f
         if co.get("PREDICTOR") == "3":
             co["PREDICTOR"] = "2"
     with atomic_output(path, overwrite) as tmp:
-        with rasterio.open(tmp, "w", driver="GTiff", width=spec.width, height=spec.height, count=1,
+        with rasterio.open(tmp, "w", driver="GTiff", width=spec.width, height=spec.height,
+                           count=arr.shape[0],
                            dtype=dtype, crs=rio_crs(spec.crs), transform=spec.transform,
                            nodata=nodata, **co) as ds:
-            ds.write(out, 1)
+            ds.write(out)
             t = {"LIDARTREES_VERSION": __version__}
             for k, v in (tags or {}).items():
                 t[str(k).upper()] = v if isinstance(v, str) else json.dumps(v, default=str)
             ds.update_tags(**t)
-            if description:
-                ds.set_band_description(1, description)
+            descs = [description] if isinstance(description, str) else (description or [])
+            for b, d in enumerate(descs):
+                ds.set_band_description(b + 1, d)
             build_overviews(ds, overviews, "average" if np.dtype(dtype).kind == "f" else "nearest")
 
 

@@ -1,0 +1,339 @@
+"""Plot-level models and stand estimates with their intervals.
+
+Area-based approach (ABA): ordinary least squares of a plot figure (volume m³/ha, basal area
+m²/ha) on one height metric (:data:`HEIGHTS`), then optionally one canopy density metric
+(:data:`DENSITIES`), then one height spread (:data:`SPREADS`), in one of two forms,
+
+* ``linear``: ``Y = b0 + Σ bk Xk``;
+* ``loglog``: ``ln Y = b0 + Σ bk ln Xk``, back-transformed with ``exp(s²/2)`` (Baskerville);
+
+the form and the metrics chosen by their leave-one-out RMSE on the plots (each plot predicted
+by the model fitted without it, in closed form from the hat matrix), a model with one more
+metric kept only when it lowers that RMSE by :data:`PARSIMONY`. At most ``(n - 2) // 3``
+metrics for ``n`` plots (3 plots per coefficient beyond the intercept and 2 more), so a model
+needs at least :data:`MIN_PLOTS` plots.
+
+Stand estimates: the mean of the model's cell predictions in the stand (cells of the plots'
+size). Their 95 % interval ``estimate ± t(0.975, n - p - 1) · sqrt(V_boot + σ²_stand)``:
+``V_boot`` the variance of the stand's estimate over bootstrap resamples of the plots (the model
+refitted on each, :data:`BOOTSTRAP` resamples; the variance of a normal with their central 95 %
+range, robust to the wild refits of resamples of few distinct plots; inflated by
+``n / (n - p - 1)``), ``σ²_stand``
+the variance of a stand's departure from the model (:func:`stand_variance`: the between-stand
+variance of the plots' leave-one-out residuals, or what their mean square holds beyond the
+plots' own sampling variance computed from their trees, the larger) plus the residual variance
+over the stand's cells.
+"""
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import InputError
+
+#: the metrics a model may take: one of the heights, then one of the canopy densities, then
+#: one of the height spreads (a model of k metrics takes the first k groups)
+HEIGHTS = ("zq95", "zq75", "zq50", "zmean", "zmax")
+DENSITIES = ("cover", "pzabovezmean")
+SPREADS = ("zsd", "zL2")
+CANDIDATES = HEIGHTS + DENSITIES + SPREADS
+FORMS = ("linear", "loglog")
+#: a model with one more metric must lower the leave-one-out RMSE by this fraction
+PARSIMONY = 0.02
+MAX_PREDICTORS = 3
+#: what the choice minimises: the plots' leave-one-out RMSE of relative errors ((pred - y) / y),
+#: so that young stands weigh as much as old ones in a stand's relative error
+SCORE = "loo_rel_rmse_pct"
+MIN_PLOTS = 5
+BOOTSTRAP = 400
+
+
+def max_predictors(n: int) -> int:
+    """The most metrics a model of ``n`` plots may take: 3 plots a metric and 2 more."""
+    return max(0, min(MAX_PREDICTORS, (n - 2) // 3))
+
+
+def check_plots(n: int, what: str = "an area-based model") -> None:
+    if n < MIN_PLOTS:
+        raise InputError(f"PLOTS: {n} plots with a measurement; {what} needs at least "
+                         f"{MIN_PLOTS} (3 per metric + 2: 5 for one metric, 8 for two, 11 for "
+                         "three)")
+
+
+@dataclass(frozen=True)
+class AbaModel:
+    """A fitted plot-level model."""
+
+    form: str
+    predictors: tuple
+    coef: np.ndarray
+    s2: float  # residual variance on the fitting scale
+    n: int
+    target: str = "volume_m3_ha"
+    stats: dict = field(default_factory=dict)
+
+    def design(self, metrics: dict) -> np.ndarray:
+        return _design(metrics, self.predictors, self.form)
+
+    def predict(self, metrics: dict) -> np.ndarray:
+        X = self.design(metrics)
+        with np.errstate(invalid="ignore", over="ignore"):
+            eta = X @ self.coef
+            return np.exp(eta + self.s2 / 2) if self.form == "loglog" else eta
+
+    def equation(self) -> str:
+        terms = [f"{self.coef[0]:.6g}"] + [
+            f"{c:+.6g}·{'ln ' if self.form == 'loglog' else ''}{p}"
+            for c, p in zip(self.coef[1:], self.predictors)]
+        lhs = f"ln({self.target})" if self.form == "loglog" else self.target
+        return f"{lhs} = {' '.join(terms)}"
+
+
+def _design(metrics: dict, predictors, form: str) -> np.ndarray:
+    cols = [np.asarray(metrics[p], float) for p in predictors]
+    if form == "loglog":
+        with np.errstate(invalid="ignore", divide="ignore"):
+            cols = [np.where(c > 0, np.log(c), np.nan) for c in cols]
+    n = len(np.asarray(metrics[next(iter(metrics))]))
+    return np.column_stack([np.ones(n)] + cols)
+
+
+def _ols(X, y):
+    """Coefficients, fitted values, leverages (None when singular)."""
+    XtX = X.T @ X
+    try:
+        inv = np.linalg.inv(XtX)
+    except np.linalg.LinAlgError:
+        return None
+    if not np.all(np.isfinite(inv)) or np.linalg.cond(XtX) > 1e12:
+        return None
+    coef = inv @ X.T @ y
+    h = np.einsum("ij,jk,ik->i", X, inv, X)
+    return coef, X @ coef, h
+
+
+def _loo(X, y, form: str):
+    """``(coef, s2, fitted, loo)`` on the original scale, or None."""
+    yt = np.log(y) if form == "loglog" else y
+    r = _ols(X, yt)
+    if r is None or np.any(r[2] > 1 - 1e-9):
+        return None
+    coef, fit, h = r
+    e = yt - fit
+    dof = max(len(y) - X.shape[1], 1)
+    s2 = float(e @ e / dof)
+    loo_t = yt - e / (1 - h)
+    if form == "loglog":
+        return coef, s2, np.exp(fit + s2 / 2), np.exp(loo_t + s2 / 2)
+    return coef, s2, fit, loo_t
+
+
+def fit_form(metrics: dict, y, predictors, form: str, target: str) -> AbaModel | None:
+    X = _design(metrics, predictors, form)
+    if not np.isfinite(X).all() or (form == "loglog" and np.any(np.asarray(y) <= 0)):
+        return None
+    r = _loo(X, np.asarray(y, float), form)
+    if r is None:
+        return None
+    coef, s2, fit, loo = r
+    return AbaModel(form, tuple(predictors), coef, s2, len(y), target,
+                    {"fitted": fit, "loo": loo, **fit_stats(y, fit, loo, len(predictors))})
+
+
+def fit_stats(y, fit, loo, p: int) -> dict:
+    """R², adjusted R², RMSE, bias (in the unit and % of the mean) of the fit and the
+    leave-one-out predictions."""
+    y = np.asarray(y, float)
+    n, mean = y.size, float(np.mean(y))
+    ss = float(np.sum((y - mean) ** 2))
+    r2 = 1 - float(np.sum((y - fit) ** 2)) / ss if ss > 0 else float("nan")
+    rmse = float(np.sqrt(np.mean((y - fit) ** 2)))
+    loo_rmse = float(np.sqrt(np.mean((y - loo) ** 2)))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rel = float(np.sqrt(np.mean(((loo - y) / y) ** 2)))
+    return {"r2": r2, "adj_r2": 1 - (1 - r2) * (n - 1) / max(n - p - 1, 1),
+            "loo_rel_rmse_pct": 100 * rel,
+            "rmse": rmse, "rmse_pct": 100 * rmse / mean, "bias": float(np.mean(fit - y)),
+            "bias_pct": 100 * float(np.mean(fit - y)) / mean, "loo_rmse": loo_rmse,
+            "loo_rmse_pct": 100 * loo_rmse / mean, "loo_bias": float(np.mean(loo - y)),
+            "loo_r2": 1 - float(np.sum((y - loo) ** 2)) / ss if ss > 0 else float("nan")}
+
+
+def candidate_sets(k: int) -> list:
+    """The metric combinations of ``k`` metrics: a height, then a density, then a spread (a
+    stand's volume grows with its height and with how much of it is covered; a free choice
+    among all pairs of 8 plots picked unstable pairs that extrapolated badly)."""
+    groups = (HEIGHTS, DENSITIES, SPREADS)[:k]
+    return list(itertools.product(*groups))
+
+
+def select_model(metrics: dict, y, target: str = "volume_m3_ha", *, forms=FORMS) -> tuple:
+    """The model chosen by leave-one-out RMSE (see the module doc): ``(model, table)``, the
+    table the best model of each size and form with its LOO RMSE."""
+    y = np.asarray(y, float)
+    check_plots(y.size)
+    pmax = max_predictors(y.size)
+    best_by_size, table = {}, []
+    for k in range(1, pmax + 1):
+        for form in forms:
+            for combo in candidate_sets(k):
+                m = fit_form(metrics, y, combo, form, target)
+                if m is None:
+                    continue
+                cur = best_by_size.get(k)
+                if cur is None or m.stats[SCORE] < cur.stats[SCORE]:
+                    best_by_size[k] = m
+        if k in best_by_size:
+            b = best_by_size[k]
+            table.append({"predictors": list(b.predictors), "form": b.form,
+                          "loo_rmse_pct": round(b.stats["loo_rmse_pct"], 3),
+                          "loo_rel_rmse_pct": round(b.stats["loo_rel_rmse_pct"], 3)})
+    if not best_by_size:
+        raise InputError(f"PLOTS: no model could be fitted on the {y.size} plots (the metrics "
+                         "do not vary between them?)")
+    chosen = best_by_size[min(best_by_size)]
+    for k in sorted(best_by_size)[1:]:
+        if best_by_size[k].stats[SCORE] < chosen.stats[SCORE] * (1 - PARSIMONY):
+            chosen = best_by_size[k]
+    return chosen, table
+
+
+def between_variance(resid, stand) -> float:
+    """Between-stand variance of plot residuals (one-way random effects, method of moments);
+    0 when fewer than two stands hold two plots or more."""
+    resid = np.asarray(resid, float)
+    stand = np.asarray(stand)
+    ok = stand >= 0
+    resid, stand = resid[ok], stand[ok]
+    ids, inv, counts = np.unique(stand, return_inverse=True, return_counts=True)
+    if (counts >= 2).sum() < 2:
+        return 0.0
+    means = np.bincount(inv, weights=resid) / counts
+    within = float(np.sum((resid - means[inv]) ** 2) / max(resid.size - ids.size, 1))
+    n0 = (resid.size - np.sum(counts ** 2) / resid.size) / max(ids.size - 1, 1)
+    msb = float(np.sum(counts * (means - resid.mean()) ** 2) / max(ids.size - 1, 1))
+    return max(0.0, (msb - within) / n0)
+
+
+def boot_variance(reps, n: int) -> np.ndarray:
+    """A variance robust to the few wild refits of small resamples: that of a normal with the
+    resamples' central 95 % range, ``((q97.5 - q2.5) / 3.92)²``."""
+    if len(reps) < 10:
+        return np.full(n, np.nan)
+    q = np.nanpercentile(np.asarray(reps, float), [2.5, 97.5], axis=0)
+    return ((q[1] - q[0]) / 3.92) ** 2
+
+
+def _stand_means(pred, cell_stand, n_stands):
+    ok = np.isfinite(pred) & (cell_stand >= 0)
+    s = np.bincount(cell_stand[ok], weights=pred[ok], minlength=n_stands)
+    c = np.bincount(cell_stand[ok], minlength=n_stands)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return s / c, c
+
+
+def t975(dof: int) -> float:
+    from scipy import stats
+
+    return float(stats.t.ppf(0.975, max(dof, 1)))
+
+
+def stand_variance(resid_loo, plot_stand, plot_noise=None) -> float:
+    """The variance of a stand's departure from the model: the between-stand variance of the
+    plots' leave-one-out residuals (:func:`between_variance`), or, when larger, what their mean
+    square holds beyond the plots' own sampling variance (``plot_noise``, from each plot's
+    trees): a misfit of the model that the plots show but the stands cannot be told apart by."""
+    s2 = between_variance(resid_loo, plot_stand)
+    if plot_noise is not None:
+        s2 = max(s2, float(np.mean(np.asarray(resid_loo) ** 2) - np.mean(plot_noise)))
+    return s2
+
+
+def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_stand,
+               n_stands: int, plot_stand, *, plot_noise=None, resamples: int = BOOTSTRAP,
+               seed: int = 0) -> dict:
+    """Each stand's mean of the cell predictions and its 95 % interval (module doc).
+
+    Returns ``estimate``, ``low``, ``high``, ``se``, ``cells`` (per stand), ``sigma2_stand``,
+    ``resamples`` (the bootstrap refits that succeeded)."""
+    y = np.asarray(y, float)
+    n, p = y.size, len(model.predictors)
+    Xc = model.design(cell_metrics)
+    valid = np.isfinite(Xc).all(axis=1)
+    est, cells = _stand_means(np.where(valid, model.predict(cell_metrics), np.nan), cell_stand,
+                              n_stands)
+    rng = np.random.default_rng(seed)
+    Xp = model.design(plot_metrics)
+    yt = np.log(y) if model.form == "loglog" else y
+    reps = []
+    for _ in range(resamples):
+        idx = rng.integers(0, n, n)
+        if np.unique(idx).size < p + 2:  # too few distinct plots to refit the model
+            continue
+        r = _ols(Xp[idx], yt[idx])
+        if r is None:
+            continue
+        coef = r[0]
+        s2 = float(np.sum((yt[idx] - r[1]) ** 2) / max(n - p - 1, 1))
+        eta = Xc[valid] @ coef
+        pred = np.full(Xc.shape[0], np.nan)
+        pred[valid] = np.exp(eta + s2 / 2) if model.form == "loglog" else eta
+        reps.append(_stand_means(pred, cell_stand, n_stands)[0])
+    v_boot = boot_variance(reps, n_stands) * n / max(n - p - 1, 1)
+    resid = y - model.stats["loo"]
+    s2_b = stand_variance(resid, plot_stand, plot_noise)
+    s2_cells = float(np.mean(resid ** 2))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        se = np.sqrt(v_boot + s2_b + s2_cells / np.maximum(cells, 1))
+    t = t975(n - p - 1)
+    return {"estimate": est, "low": np.maximum(est - t * se, 0.0), "high": est + t * se,
+            "se": se, "cells": cells, "sigma2_stand": s2_b, "resamples": len(reps)}
+
+
+def fit_dap_height(dap, ht) -> tuple:
+    """``ln DAP = a + b ln HT`` on the field trees: ``(a, b, s2, n)`` (DAP of a tree of
+    height ``h``: ``exp(a + b ln h + s2 / 2)``)."""
+    ok = np.isfinite(dap) & np.isfinite(ht) & (dap > 0) & (ht > 1.3)
+    if ok.sum() < 5:
+        raise InputError(f"-trees_table: {int(ok.sum())} trees with DAP and HT; the tree "
+                         "approach needs at least 5 to relate DAP to height")
+    X = np.column_stack([np.ones(ok.sum()), np.log(ht[ok])])
+    y = np.log(dap[ok])
+    coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+    s2 = float(np.sum((y - X @ coef) ** 2) / max(ok.sum() - 2, 1))
+    return float(coef[0]), float(coef[1]), s2, int(ok.sum())
+
+
+def ratio_stands(field_v, lidar_v, stand_lidar_v, plot_stand, *, plot_noise=None,
+                 resamples: int = BOOTSTRAP, seed: int = 0) -> dict:
+    """Tree approach: each stand's detected trees' volume per ha times the ratio ``R = Σ
+    field / Σ detected`` over the plots (missed trees and the DAP model's bias), with the
+    interval of :func:`aba_stands` (bootstrap of R over the plots, between-stand variance of
+    the plots' residuals ``field - R · detected``)."""
+    f, d = np.asarray(field_v, float), np.asarray(lidar_v, float)
+    n = f.size
+    if d.sum() <= 0:
+        raise InputError("PLOTS: no detected tree inside any plot; the tree approach needs "
+                         "the plots' detected trees")
+    R = f.sum() / d.sum()
+    rng = np.random.default_rng(seed)
+    rs = []
+    for _ in range(resamples):
+        idx = rng.integers(0, n, n)
+        if d[idx].sum() > 0:
+            rs.append(f[idx].sum() / d[idx].sum())
+    v_r = float(boot_variance(np.array(rs)[:, None], 1)[0])
+    sv = np.asarray(stand_lidar_v, float)
+    est = R * sv
+    # leave-one-out ratio predictions of each plot
+    loo = np.array([(f.sum() - f[i]) / max(d.sum() - d[i], 1e-9) * d[i] for i in range(n)])
+    resid = f - loo
+    s2_b = stand_variance(resid, plot_stand, plot_noise)
+    with np.errstate(invalid="ignore"):
+        se = np.sqrt(v_r * n / max(n - 1, 1) * sv ** 2 + s2_b)
+    t = t975(n - 1)
+    return {"estimate": est, "low": np.maximum(est - t * se, 0), "high": est + t * se, "se": se,
+            "ratio": float(R), "loo": loo, "sigma2_stand": s2_b,
+            **{f"plot_{k}": v for k, v in fit_stats(f, R * d, loo, 1).items()}}

@@ -1,0 +1,188 @@
+"""What the ``volume`` command writes: the plots, stands and tree layers, the volume raster
+(m³/ha per cell), and the model report (JSON, and a PNG of measured against predicted)."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from .models import CANDIDATES
+
+FIELD_DOCS = {
+    "volume_m3_ha": "wood volume (m³/ha): measured (plots) or estimated (stands)",
+    "volume_m3_ha_low": "lower end of the 95 % interval of volume_m3_ha",
+    "volume_m3_ha_high": "upper end of the 95 % interval of volume_m3_ha",
+    "volume_m3": "wood volume in the stand (m³) = volume_m3_ha x area_ha",
+    "volume_m3_low": "lower end of the 95 % interval of volume_m3",
+    "volume_m3_high": "upper end of the 95 % interval of volume_m3",
+    "basal_area_m2_ha": "basal area (m²/ha)",
+    "n_plots": "field plots in the stand", "n_plots_model": "field plots the model was fitted on",
+    "predicted_m3_ha": "volume the model predicts for the plot (m³/ha)",
+    "residual_m3_ha": "measured - predicted (m³/ha)",
+    "loo_predicted_m3_ha": "volume predicted by the model fitted without this plot (m³/ha)",
+    "dap_cm": "DAP (cm) from the tree's height", "volume_m3": "tree volume (m³)",
+}
+
+
+def _stand_fields(prefix, est, area_ha):
+    out = {}
+    for key, suffix in (("estimate", ""), ("low", "_low"), ("high", "_high")):
+        v = np.asarray(est[key], float)
+        out[f"{prefix}_m3_ha{suffix}"] = np.round(v, 3)
+        out[f"{prefix}_m3{suffix}"] = np.round(v * area_ha, 2)
+    return out
+
+
+def build(area, plots, stands, meas, pm, plot_stand, res_aba, res_trees, spec, cm, options,
+          metric, r):
+    """``(layers, report, volume grid or None)``."""
+    import geopandas as gpd
+    import pandas as pd
+
+    figs = meas["figures"]
+    ids = list(stands.ids)
+    pdf = pd.DataFrame({"plot_id": list(plots.ids),
+                        "stand_id": [ids[k] if k >= 0 else None for k in plot_stand],
+                        "area_m2": np.round(plots.area_m2, 2)})
+    for k in ("volume_m3_ha", "basal_area_m2_ha", "trees_ha", "n_trees", "mean_ht"):
+        if k in figs:
+            pdf[k] = np.round(figs[k], 4)
+    report = {"approach": options.approach, "plots": len(plots), "stands": len(stands),
+              "plot_area_m2": float(np.mean(plots.area_m2)), "cell_res_m": spec.res,
+              "metrics": {"min_height": metric.min_height, "returns": metric.returns,
+                          "points": r["points"]}, "bootstrap_resamples": options.resamples,
+              "interval": "95 %: estimate ± t(0.975, n-p-1)·sqrt(bootstrap variance over the "
+                          "plots (model refitted) + between-stand residual variance + residual "
+                          "variance / cells)"}
+    if meas["trees"] is not None:
+        t = meas["trees"]
+        eq = t["equation"]
+        report["field"] = {"trees": int(t["dap"].size), "heights_estimated":
+                           int(t["ht_estimated"].sum()), "hypsometric": t["hypsometric"],
+                           "volume_equation": None if eq is None else
+                           {"form": "V = b0·DAP^b1·HT^b2", "b0": eq.b0, "b1": eq.b1,
+                            "b2": eq.b2, "source": eq.source}}
+    else:
+        report["field"] = {"plot_volume_field": meas.get("volume_field")}
+    sdf = pd.DataFrame({"stand_id": ids, "area_ha": np.round(stands.area_ha, 4),
+                        "n_plots": np.bincount(plot_stand[plot_stand >= 0],
+                                               minlength=len(ids)),
+                        "n_plots_model": len(plots)})
+    vol_grid = None
+    for m in CANDIDATES:
+        pdf[m] = np.round(pm[m], 4)
+    if "volume" in res_aba:
+        model, table, est = res_aba["volume"]
+        pdf["predicted_m3_ha"] = np.round(model.stats["fitted"], 3)
+        pdf["residual_m3_ha"] = np.round(figs["volume_m3_ha"] - model.stats["fitted"], 3)
+        pdf["loo_predicted_m3_ha"] = np.round(model.stats["loo"], 3)
+        for k, v in _stand_fields("volume", est, stands.area_ha).items():
+            sdf[k] = v
+        sdf["cells"] = est["cells"]
+        vol_grid = model.predict(cm).reshape(spec.shape)
+        report["volume_model"] = _model_report(model, table, est)
+    if "basal_area" in res_aba:
+        model, table, est = res_aba["basal_area"]
+        sdf["basal_area_m2_ha"] = np.round(est["estimate"], 3)
+        sdf["basal_area_m2_ha_low"] = np.round(est["low"], 3)
+        sdf["basal_area_m2_ha_high"] = np.round(est["high"], 3)
+        report["basal_area_model"] = _model_report(model, table, est)
+    layers = {}
+    if res_trees is not None:
+        ts = res_trees["stands"]
+        pdf["detected_m3_ha"] = np.round(res_trees["detected_m3_ha"], 3)
+        pdf["detected_trees_ha"] = np.round(res_trees["detected_trees_ha"], 1)
+        pdf["trees_loo_predicted_m3_ha"] = np.round(ts["loo"], 3)
+        prefix = "volume" if "volume" not in res_aba else "volume_trees"
+        for k, v in _stand_fields(prefix, ts, stands.area_ha).items():
+            sdf[k] = v
+        eq = res_trees["equation"]
+        report["tree_approach"] = {
+            "dap_height": res_trees["dap_height"],
+            "volume_equation": {"b0": eq.b0, "b1": eq.b1, "b2": eq.b2, "source": eq.source},
+            "ratio_field_to_detected": ts["ratio"], "sigma2_stand": ts["sigma2_stand"],
+            **{k[5:]: v for k, v in ts.items() if k.startswith("plot_")}}
+        tops = res_trees["tops"]
+        layers["tree_tops"] = tops
+    layers = {"plots": gpd.GeoDataFrame(pdf, geometry=list(plots.geoms), crs=area.crs),
+              "stands": gpd.GeoDataFrame(sdf, geometry=list(stands.geoms), crs=area.crs),
+              **layers}
+    main = "volume_m3" if "volume_m3" in sdf else None
+    if main:
+        report["total_m3"] = float(np.nansum(sdf["volume_m3"]))
+    return layers, report, vol_grid
+
+
+def _model_report(model, table, est) -> dict:
+    s = model.stats
+    keep = ("r2", "adj_r2", "rmse", "rmse_pct", "bias", "bias_pct", "loo_rmse", "loo_rmse_pct",
+            "loo_bias", "loo_r2")
+    return {"form": model.form, "predictors": list(model.predictors),
+            "equation": model.equation(), "coefficients": [float(c) for c in model.coef],
+            "residual_variance": model.s2, "plots": model.n,
+            **{k: round(float(s[k]), 4) for k in keep},
+            "selection": {"criterion": "leave-one-out RMSE", "candidates": list(CANDIDATES),
+                          "best_by_size": table},
+            "sigma2_stand": est["sigma2_stand"], "bootstrap_refits": est["resamples"]}
+
+
+def _draw(report, y, fit, loo):
+    m = report["volume_model"]
+
+    def draw(ax):
+        lo, hi = 0.0, float(max(np.max(y), np.max(fit), np.max(loo))) * 1.08
+        ax.plot([lo, hi], [lo, hi], color="0.5", lw=1, label="1:1")
+        ax.scatter(y, fit, s=28, color="tab:green", label="fitted")
+        ax.scatter(y, loo, s=18, facecolors="none", edgecolors="tab:red",
+                   label="leave-one-out")
+        ax.set_xlim(lo, hi), ax.set_ylim(lo, hi)
+        ax.set_xlabel("measured volume (m³/ha)")
+        ax.set_ylabel("predicted volume (m³/ha)")
+        ax.set_title(f"{m['form']}: {', '.join(m['predictors'])} ({m['plots']} plots)",
+                     fontsize=9)
+        ax.text(0.03, 0.97, f"R² {m['r2']:.3f} (adj. {m['adj_r2']:.3f})\n"
+                f"RMSE {m['rmse_pct']:.1f} %  bias {m['bias_pct']:+.2f} %\n"
+                f"LOO RMSE {m['loo_rmse_pct']:.1f} %  LOO R² {m['loo_r2']:.3f}",
+                transform=ax.transAxes, va="top", fontsize=9)
+        ax.legend(loc="lower right", fontsize=8)
+    return draw
+
+
+def write(output, side, layers, report, spec, vol_grid, res_aba, out, input, area):
+    """Every output, each atomically; the side files are removed again when a later one
+    fails (no half set of outputs)."""
+    import contextlib
+    import os
+
+    from ..io.output import atomic_output
+    from ..io.provenance import raster_tags
+    from ..io.raster import write_geotiff
+    from ..io.vector import describe_columns, write_gpkg
+    from ..report.plots import plot_png
+
+    done = []
+    try:
+        if vol_grid is not None:
+            write_geotiff(side["raster"], vol_grid, spec, overwrite=out.overwrite,
+                          creation_options=out.creation_options, description="volume (m³/ha)",
+                          tags=raster_tags("volume", area, {"res": spec.res}, input))
+            done.append(side["raster"])
+        with atomic_output(side["json"], out.overwrite, param="report") as tmp:
+            tmp.write_text(json.dumps(report, indent=1, default=float), encoding="utf-8")
+        done.append(side["json"])
+        if "volume" in res_aba:
+            model = res_aba["volume"][0]
+            y = layers["plots"]["volume_m3_ha"].to_numpy(float)
+            plot_png(side["png"], _draw(report, y, model.stats["fitted"], model.stats["loo"]),
+                     overwrite=out.overwrite)
+            done.append(side["png"])
+        write_gpkg(output, layers, overwrite=out.overwrite, layer_options=out.layer_options,
+                   metadata={"volume_report": report},
+                   styles={"stands": "volume_stands.qml", "tree_tops": "tree_tops.qml"})
+        for layer in ("plots", "stands"):
+            describe_columns(output, layer, FIELD_DOCS)
+    except BaseException:
+        for p in done:
+            with contextlib.suppress(OSError):
+                os.unlink(p)
+        raise

@@ -1,0 +1,248 @@
+"""The ``volume`` command: wood volume per stand from LiDAR and field plots (docs/VOLUME.md).
+
+1. the plots' measured figures: from the tree table (:mod:`.field`: HT completed by the
+   hypsometric relation, volumes by Schumacher-Hall), or from the plots layer's own
+   ``volume_m3_ha`` field;
+2. the height metrics of every plot and of every cell of the plots' size over the area, by the
+   same function (:mod:`.tiles`);
+3. area-based approach: the model chosen by leave-one-out RMSE, applied to the cells, averaged
+   per stand, with bootstrap intervals (:mod:`.models`);
+4. tree approach: the detected trees (the ``trees`` chain), each tree's DAP from its height
+   (``ln DAP = a + b ln H`` fitted on the plots' trees) and volume from the equation, summed per
+   stand and scaled by the plots' ratio of field volume to detected volume;
+5. outputs (:mod:`.outputs`): plots, stands and tree layers, the volume raster, the report.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..catalog.catalog import TilingOptions
+from ..errors import InputError
+from ..io.names import normalise
+from ..io.options import ReadOptions
+from ..io.output import OutputOptions, check_outputs
+from ..progress import SubProgress, as_progress
+from .chain import open_points
+from .field import Equation, complete_trees, plot_figures, read_trees
+from .models import BOOTSTRAP, aba_stands, check_plots, fit_dap_height, ratio_stands, \
+    select_model
+from .plots import Zones, check_inside, load_plots
+from .tiles import MetricOptions, area_metrics
+
+APPROACHES = ("aba", "trees", "both")
+#: plot layer fields taken as the plot's measured volume (m³/ha) when there is no tree table
+PLOT_VOLUME_FIELDS = ("volumem3ha", "volumeha", "volha", "vtccha", "volume", "vol")
+
+
+@dataclass(frozen=True)
+class VolumeOptions:
+    """How volume is estimated.
+
+    Attributes
+    ----------
+    approach : {"aba", "trees", "both"}
+    equation : Equation, optional
+        Schumacher-Hall coefficients (None: fitted on the trees carrying a volume).
+    res : float or "auto"
+        Cell size of the wall-to-wall metrics (auto: the side of a square of the plots' mean
+        area, 20 m for 400 m² plots).
+    resamples : int
+        Bootstrap resamples of the plots for the intervals.
+    seed : int
+    """
+
+    approach: str = "aba"
+    equation: Equation | None = None
+    res: object = "auto"
+    resamples: int = BOOTSTRAP
+    seed: int = 0
+
+    def __post_init__(self):
+        if self.approach not in APPROACHES:
+            raise InputError(f"-approach: expected aba, trees or both, got {self.approach!r}")
+        if not (isinstance(self.res, str) and self.res == "auto"):
+            try:
+                ok = float(self.res) > 0
+            except (TypeError, ValueError):
+                ok = False
+            if not ok:
+                raise InputError(f"-tr: expected auto or a cell size > 0, got {self.res!r}")
+
+
+def side_outputs(output) -> dict:
+    """The files written beside ``OUT.gpkg``: the volume raster and the report."""
+    from pathlib import Path
+
+    p = Path(output)
+    stem = p.with_suffix("")
+    return {"raster": Path(f"{stem}_volume.tif"), "json": Path(f"{stem}_report.json"),
+            "png": Path(f"{stem}_report.png")}
+
+
+def _plot_measurements(plots, trees_table, equation) -> dict:
+    """Each plot's measured figures and the completed tree table (None without one)."""
+    if trees_table is None:
+        cols = {normalise(c): c for c in plots.attrs.columns}
+        col = next((cols[f] for f in PLOT_VOLUME_FIELDS if f in cols), None)
+        if col is None:
+            raise InputError(f"PLOTS: {plots.source}: no tree table (-trees_table) and no plot "
+                             "volume field (volume_m3_ha); give one of them")
+        import pandas as pd
+
+        v = pd.to_numeric(plots.attrs[col].astype(str).str.replace(",", "."), errors="coerce")
+        if v.isna().any():
+            bad = plots.ids[int(np.flatnonzero(v.isna().to_numpy())[0])]
+            raise InputError(f"PLOTS: {plots.source}: plot {bad} has no {col}")
+        return {"figures": {"volume_m3_ha": v.to_numpy(float)}, "trees": None,
+                "volume_field": str(col)}
+    trees = complete_trees(read_trees(trees_table), equation)
+    figs = plot_figures(trees, plots.ids, plots.area_m2)
+    return {"figures": figs, "trees": trees}
+
+
+def _cell_res(options: VolumeOptions, plots) -> float:
+    if isinstance(options.res, str):
+        return max(0.5, round(2 * math.sqrt(float(np.mean(plots.area_m2)))) / 2)  # 0.5 m steps
+    return float(options.res)
+
+
+def _cells(grid_spec, grid, stand_zones):
+    """The cells' metrics as flat arrays and each cell's stand (by its centre)."""
+    from .metrics import METRICS
+
+    rows, cols = np.indices(grid_spec.shape)
+    cx, cy = grid_spec.xy(rows.ravel(), cols.ravel())
+    stand = stand_zones.members(cx, cy)
+    metrics = {k: grid[i].ravel().astype(np.float64) for i, k in enumerate(METRICS)}
+    return metrics, stand
+
+
+def _tree_approach(input, plots, stands_src, stand_id, stands, trees, equation, read, tiling,
+                   surface, progress) -> dict:
+    """Detected trees' DAP and volume, their sums per plot and stand, the ratio estimate."""
+    from ..als.chain import trees_run
+    from ..als.surfaces import SurfaceOptions
+    from .field import fit_schumacher
+
+    r = trees_run(input, None, read=read, tiling=tiling, stands=stands_src, stand_id=stand_id,
+                  surface=SurfaceOptions(dtm=surface.dtm), progress=progress)
+    tops = r["layers"]["tree_tops"]
+    h = tops["height"].to_numpy(float)
+    measured = ~trees["ht_estimated"]
+    use = measured if measured.sum() >= 5 else np.ones(measured.size, bool)
+    a, b, s2, n_fit = fit_dap_height(trees["dap"][use], trees["ht"][use])
+    eq = trees["equation"] or equation or fit_schumacher(trees["dap"], trees["ht"],
+                                                         trees["volume"])
+    dap = np.exp(a + b * np.log(np.maximum(h, 1.3)) + s2 / 2)
+    vol = eq(dap, h)
+    tx, ty = tops.geometry.x.to_numpy(), tops.geometry.y.to_numpy()
+    plot_det = plots.zones.counts(tx, ty, vol) / (plots.area_m2 / 1e4)
+    plot_count = plots.zones.counts(tx, ty) / (plots.area_m2 / 1e4)
+    sid = Zones.of_polygons(stands.geoms).members(tx, ty)
+    sok = sid >= 0
+    stand_det = np.bincount(sid[sok], weights=vol[sok], minlength=len(stands)) / stands.area_ha
+    return {"tops": tops.assign(dap_cm=dap, volume_m3=vol), "detected_m3_ha": plot_det,
+            "detected_trees_ha": plot_count, "stand_detected_m3_ha": stand_det,
+            "dap_height": {"form": "ln(DAP) = a + b ln(H)", "a": a, "b": b, "s2": s2,
+                           "trees": n_fit},
+            "equation": eq}
+
+
+def _aba(pm, figures, cm, cell_stand, n_stands, plot_stand, options) -> dict:
+    """The area-based models (volume, and basal area when the trees give it) and their stand
+    estimates: ``{"volume": (model, selection table, estimates), "basal_area": ...}``."""
+    out = {}
+    for key, target in (("volume", "volume_m3_ha"), ("basal_area", "basal_area_m2_ha")):
+        if target not in figures:
+            continue
+        y = figures[target]
+        model, table = select_model(pm, y, target)
+        noise = figures.get("sampling_var_m3_ha") if key == "volume" else None
+        out[key] = (model, table, aba_stands(model, pm, y, cm, cell_stand, n_stands,
+                                             plot_stand, plot_noise=noise,
+                                             resamples=options.resamples, seed=options.seed))
+    return out
+
+
+def volume_run(input, plots, output, *, stands, trees_table=None, plot_id=None,
+               plot_radius=None, stand_id=None, options: VolumeOptions | None = None,
+               metric: MetricOptions | None = None, surface=None,
+               read: ReadOptions | None = None, tiling: TilingOptions | None = None,
+               out: OutputOptions | None = None, progress=None) -> dict:
+    """Wood volume per stand (see the module doc). ``output`` a ``.gpkg`` (layers ``plots``,
+    ``stands``, and ``tree_tops`` with the tree approach) or None (kept in memory); the
+    volume raster and the report (JSON, PNG) are written beside it
+    (:func:`side_outputs`)."""
+    from ..als.stands import load_stands
+    from ..als.surfaces import SurfaceOptions
+    from . import outputs as outs
+
+    options, metric = options or VolumeOptions(), metric or MetricOptions()
+    read, out = read or ReadOptions(), out or OutputOptions()
+    surface = surface or SurfaceOptions(chm="max", fill="none", outliers=False)
+    prog = as_progress(progress)
+    if stands is None:
+        raise InputError("-stands: the volume command needs the stand polygons")
+    if options.approach != "aba" and trees_table is None:
+        raise InputError(f"-approach {options.approach}: the tree approach needs the plots' "
+                         "trees (-trees_table)")
+    side = side_outputs(output) if output is not None else {}
+    if output is not None:
+        from pathlib import Path
+
+        if Path(output).suffix.lower() != ".gpkg":
+            raise InputError(f"OUTPUT: {output}: expected a .gpkg file name")
+        check_outputs([(output, "OUTPUT"), *((p, k) for k, p in side.items())],
+                      (input, plots, stands, trees_table), out.overwrite)
+    area = open_points(input, read)
+    pl = load_plots(plots, area.crs, plot_id=plot_id, plot_radius=plot_radius)
+    check_inside(pl, area.extent, area.label())
+    st = load_stands(stands, area.crs, stand_id)
+    meas = _plot_measurements(pl, trees_table, options.equation)
+    y = meas["figures"]["volume_m3_ha"]
+    check_plots(len(pl), "a volume model" if options.approach != "trees" else
+                "the tree approach")
+    res = _cell_res(options, pl)
+    prog.update(0.02, "metrics")
+    r = area_metrics(area, cells_res=res, zones=[pl.zones], options=metric, surface=surface,
+                     tiling=tiling, progress=SubProgress(prog, 0.02, 0.5))
+    pm = r["zones"][0]
+    empty = [pl.ids[i] for i in np.flatnonzero(pm["n"] == 0)]
+    if empty:
+        raise InputError(f"PLOTS: {len(empty)} plots hold no return above -min_height: "
+                         f"{', '.join(empty[:8])}; outside the flight, or in a clearing?")
+    spec, grid = r["cells"]
+    stand_zones = Zones.of_polygons(st.geoms)
+    cm, cell_stand = _cells(spec, grid, stand_zones)
+    cx = np.array([g.representative_point().x for g in pl.geoms])
+    cy = np.array([g.representative_point().y for g in pl.geoms])
+    plot_stand = stand_zones.members(cx, cy)
+    res_aba = {}
+    if options.approach in ("aba", "both"):
+        prog.update(0.55, "area-based model")
+        res_aba = _aba(pm, meas["figures"], cm, cell_stand, len(st), plot_stand, options)
+    res_trees = None
+    if options.approach in ("trees", "both"):
+        prog.update(0.6, "trees")
+        res_trees = _tree_approach(input, pl, stands, stand_id, st, meas["trees"],
+                                   options.equation, read, tiling, surface,
+                                   SubProgress(prog, 0.6, 0.9))
+        res_trees["stands"] = ratio_stands(y, res_trees["detected_m3_ha"],
+                                           res_trees["stand_detected_m3_ha"], plot_stand,
+                                           plot_noise=meas["figures"].get("sampling_var_m3_ha"),
+                                           resamples=options.resamples, seed=options.seed)
+    prog.update(0.92, "writing")
+    layers, report, vol_grid = outs.build(area, pl, st, meas, pm, plot_stand, res_aba, res_trees,
+                                          spec, cm, options, metric, r)
+    result = {"output": None if output is None else str(output), "plots": len(pl),
+              "stands": len(st), "cell_res": spec.res, "report": report, "layers": layers,
+              "volume_grid": (spec, vol_grid)}
+    if output is not None:
+        outs.write(output, side, layers, report, spec, vol_grid, res_aba, out, input, area)
+        result.update({k: str(v) for k, v in side.items()
+                       if k != "raster" or vol_grid is not None})
+    prog.update(1.0, "done")
+    return result

@@ -1,0 +1,59 @@
+"""The metrics and volume algorithms in a headless QGIS (issue 40): the same results as the
+CLI, and a bad input one QgsProcessingException with nothing written."""
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytestmark = pytest.mark.qgis
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+
+def run(alg, params):
+    import processing
+    from qgis.core import QgsProcessingFeedback
+
+    return processing.run(f"lidartrees:{alg}", params, feedback=QgsProcessingFeedback())
+
+
+def test_metrics_cells_as_cli(qgis_app, tmp_path, data):
+    import rasterio
+
+    from lidartrees_gis.cli import main
+
+    f = data("lidR_extdata/Megaplot.laz")
+    r = run("metrics", {"INPUT": str(f), "OUTPUT": str(tmp_path / "q.tif"), "RES": 20,
+                        "MIN_HEIGHT": "none", "DTM": "none"})
+    assert main(["metrics", str(f), str(tmp_path / "c.tif"), "-min_height", "none", "-dtm",
+                 "none", "-q"]) == 0
+    with rasterio.open(r["OUTPUT"]) as q, rasterio.open(tmp_path / "c.tif") as c:
+        assert q.crs.to_epsg() == 26917 and q.descriptions == c.descriptions
+        assert q.descriptions[:3] == ("zmax", "zmean", "zsd")
+        np.testing.assert_array_equal(q.read(), c.read())
+
+
+def test_volume_layers_and_bad_input(qgis_app, tmp_path):
+    import geopandas as gpd
+    from qgis.core import QgsProcessingException
+
+    from test_volume import EQ, _write_farm
+
+    truth, _ = _write_farm(tmp_path, n_plots=9)
+    out = tmp_path / "v.gpkg"
+    params = {"INPUT": str(tmp_path / "farm.laz"), "PLOTS": str(tmp_path / "plots.gpkg"),
+              "OUTPUT": str(out), "STANDS": str(tmp_path / "stands.gpkg"),
+              "TREES_TABLE": str(tmp_path / "arvores.csv"), "PLOT_RADIUS": 11.28,
+              "VOLUME_EQUATION": EQ, "RESAMPLES": 100}
+    run("volume", params)
+    st = gpd.read_file(out, layer="stands")
+    assert len(st) == 6 and st["n_plots"].sum() == 9
+    err = st["volume_m3_ha"].to_numpy() / truth["stands"]["volume_m3_ha"] - 1
+    assert np.abs(err).max() < 0.15
+    assert (tmp_path / "v_volume.tif").exists() and (tmp_path / "v_report.json").exists()
+    gpd.read_file(tmp_path / "plots.gpkg").iloc[:3].to_file(tmp_path / "three.gpkg")
+    bad = tmp_path / "bad.gpkg"
+    with pytest.raises(QgsProcessingException, match="at least 5") as e:
+        run("volume", {**params, "PLOTS": str(tmp_path / "three.gpkg"), "OUTPUT": str(bad)})
+    assert "\n" not in str(e.value).strip()
+    assert not bad.exists() and not list(tmp_path.glob("bad_*"))

@@ -1,0 +1,117 @@
+"""The metrics command on real data: Megaplot (height-normalised, -dtm none) and the efi
+plots (centres, 11.28 m radius, lidR's example) against the lidR definitions computed one
+group at a time from the file's points (tests/test_inventory_metrics.py)."""
+import numpy as np
+import pytest
+
+from test_inventory_metrics import STD_Z, _close, lidr_stdmetrics_z
+
+MP = "lidR_extdata/Megaplot.laz"
+EFI = "lidR_extdata/efi_plot.shp"
+
+
+def _xyz(path):
+    import laspy
+
+    las = laspy.read(path)
+    return np.asarray(las.x), np.asarray(las.y), np.asarray(las.z), np.asarray(las.return_number)
+
+
+def _run(data, tmp_path, out, **kw):
+    from lidartrees_gis import api as lt
+
+    return lt.metrics(data(MP), tmp_path / out, dtm="none", min_height=None, **kw)
+
+
+def test_megaplot_cells_equal_lidr_definitions(data, tmp_path):
+    import rasterio
+
+    r = _run(data, tmp_path, "m.tif", res=20)
+    x, y, z, _ = _xyz(data(MP))
+    with rasterio.open(tmp_path / "m.tif") as ds:
+        assert ds.count == r["bands"] and ds.descriptions[0] == "zmax"
+        names = list(ds.descriptions)
+        arr = ds.read()
+        arr = np.where(arr == ds.nodata, np.nan, arr)
+        t = ds.transform
+        assert ds.crs.to_epsg() == 26917
+    # lidR's pixel_metrics grid: cells on multiples of 20 m
+    assert t.c % 20 == 0 and t.f % 20 == 0
+    col = np.floor(x / 20).astype(int) - int(t.c // 20)
+    row = int(t.f // 20) - 1 - np.floor(y / 20).astype(int)
+    checked = 0
+    for (rr, cc) in {(int(a), int(b)) for a, b in zip(row[::997], col[::997])}:
+        sel = (row == rr) & (col == cc)
+        ref = lidr_stdmetrics_z(z[sel])
+        for name in STD_Z:
+            v = float(arr[names.index(name), rr, cc])
+            assert _close(v, ref[name]) or abs(v - ref[name]) < 1e-4 * max(1, abs(ref[name])), \
+                (rr, cc, name, v, ref[name])  # float32 band
+        assert arr[names.index("n"), rr, cc] == sel.sum()
+        checked += 1
+    assert checked >= 40
+    assert float(arr[0].max()) == pytest.approx(z.max(), abs=1e-5)
+
+
+def test_efi_plots_equal_lidr_definitions(data, tmp_path):
+    import geopandas as gpd
+
+    r = _run(data, tmp_path, "p.gpkg", plots=data(EFI), plot_radius=11.28)
+    assert r["plot_metrics"] == 5
+    g = gpd.read_file(tmp_path / "p.gpkg", layer="plot_metrics")
+    assert g.crs.to_epsg() == 26917 and list(g["plot_id"]) == [f"PEPQ{i}" for i in range(1, 6)]
+    assert "VOI" in g.columns  # the plots' own fields kept
+    x, y, z, _ = _xyz(data(MP))
+    efi = gpd.read_file(data(EFI))
+    for k, p in enumerate(efi.geometry):
+        sel = (x - p.x) ** 2 + (y - p.y) ** 2 <= 11.28 ** 2  # lidR clip_circle
+        ref = lidr_stdmetrics_z(z[sel])
+        for name in STD_Z:
+            assert _close(float(g[name][k]), ref[name]), (k, name)
+        assert g["n"][k] == sel.sum() and g["zmax"][k] <= z.max()
+    # the area of each plot polygon is that of the circle to 0.5 %
+    assert np.allclose(g.geometry.area, np.pi * 11.28 ** 2, rtol=5e-3)
+
+
+def test_first_returns_min_height_and_tiles_agree(data, tmp_path):
+    import rasterio
+
+    a = _run(data, tmp_path, "a.tif", res=20, returns="first")
+    b = _run(data, tmp_path, "b.tif", res=20, returns="first", tile_size=60)
+    assert b["tiles"] > 1 and a["tiles"] == 1
+    with rasterio.open(tmp_path / "a.tif") as da, rasterio.open(tmp_path / "b.tif") as db:
+        assert np.array_equal(da.read(), db.read())
+        n = da.read(da.descriptions.index("n") + 1)
+    _, _, _, rn = _xyz(data(MP))
+    assert n[n > -1e30].sum() == (rn == 1).sum()
+
+
+def test_bad_inputs_one_line(data, tmp_path):
+    from lidartrees_gis import api as lt
+    from lidartrees_gis.errors import InputError
+
+    with pytest.raises(InputError, match="-plot_radius"):
+        lt.metrics(data(MP), tmp_path / "x.gpkg", plots=data(EFI), dtm="none")
+    with pytest.raises(InputError, match="GeoPackage"):
+        lt.metrics(data(MP), tmp_path / "x.tif", plots=data(EFI), plot_radius=11.28)
+    assert not list(tmp_path.iterdir())
+
+
+def test_stand_metrics_and_python_in_memory(data, tmp_path):
+    import geopandas as gpd
+    import shapely
+
+    from lidartrees_gis import api as lt
+
+    x, y, z, _ = _xyz(data(MP))
+    boxes = [(684770, 5017780, 684880, 5017900), (684880, 5017780, 684990, 5018000)]
+    gpd.GeoDataFrame({"talhao": ["A", "B"]}, geometry=[shapely.box(*b) for b in boxes],
+                     crs="EPSG:26917").to_file(tmp_path / "st.gpkg")
+    r = lt.metrics(data(MP), stands=tmp_path / "st.gpkg", dtm="none", min_height=2.0)
+    s = r["layers"]["stand_metrics"]
+    assert list(s["stand_id"]) == ["A", "B"]
+    for k, (x0, y0, x1, y1) in enumerate(boxes):
+        sel = (x > x0) & (x < x1) & (y > y0) & (y < y1) & (z > 2.0)
+        assert s["n"][k] == sel.sum()
+        assert s["zmean"][k] == pytest.approx(z[sel].mean())
+    assert s.crs.to_epsg() == 26917

@@ -1,0 +1,187 @@
+"""The volume command on a generated farm with known stems (lidartrees_gis.synthetic.make_farm):
+CLI and Python, the outputs' fields, stand volumes near the truth, and one line per bad
+input with nothing written."""
+import json
+
+import numpy as np
+import pytest
+
+from lidartrees_gis.cli import main
+
+EQ = "0.000049,1.85,1.05"  # the generator's Schumacher-Hall
+
+
+def _write_farm(d, density=4.0, n_plots=9, seed=0):
+    import geopandas as gpd
+    import pyproj
+    import shapely
+
+    from lidartrees_gis.io.lasout import write_points
+    from lidartrees_gis.synthetic import (CRS, FarmParams, farm_plots, make_farm, plot_trees,
+                                          write_trees_ptbr)
+
+    p = FarmParams(cols=3, rows=2, side=110, density=density, seed=seed)
+    pts, truth = make_farm(p)
+    write_points(d / "farm.laz", pts.x, pts.y, pts.z, crs=pyproj.CRS(CRS),
+                 classification=pts.classification)
+    boxes = truth["stands"]["box"]
+    gpd.GeoDataFrame({"talhao": [f"T{k + 1}" for k in range(len(boxes))]},
+                     geometry=[shapely.box(*b) for b in boxes], crs=CRS).to_file(d / "stands.gpkg")
+    x, y, _ = farm_plots(p, per_ha=n_plots / (6 * 1.21), seed=seed)
+    gpd.GeoDataFrame({"parcela": np.arange(1, x.size + 1)}, geometry=gpd.points_from_xy(x, y),
+                     crs=CRS).to_file(d / "plots.gpkg")
+    rows = plot_trees(truth, x, y, ht_share=0.4, seed=seed)
+    write_trees_ptbr(d / "arvores.csv", rows)
+    return truth, rows
+
+
+@pytest.fixture(scope="module")
+def farm(tmp_path_factory):
+    d = tmp_path_factory.mktemp("farm")
+    truth, rows = _write_farm(d)
+    return d, truth, rows
+
+
+def _args(d, out, *extra):
+    return ["volume", str(d / "farm.laz"), str(d / "plots.gpkg"), str(out), "-stands",
+            str(d / "stands.gpkg"), "-trees_table", str(d / "arvores.csv"), "-plot_radius",
+            "11.28", "-q", *extra]
+
+
+def test_cli_both_approaches(farm, tmp_path):
+    import geopandas as gpd
+    import rasterio
+
+    d, truth, rows = farm
+    out = tmp_path / "vol.gpkg"
+    assert main(_args(d, out, "-volume_equation", EQ, "-approach", "both",
+                      "-resamples", "200")) == 0
+    plots = gpd.read_file(out, layer="plots")
+    stands = gpd.read_file(out, layer="stands")
+    tops = gpd.read_file(out, layer="tree_tops")
+    assert len(plots) == 9 and plots.crs.to_epsg() == 29194
+    for f in ("volume_m3_ha", "predicted_m3_ha", "residual_m3_ha", "loo_predicted_m3_ha",
+              "basal_area_m2_ha", "trees_ha"):
+        assert f in plots.columns
+    # measured volume of each plot = Schumacher-Hall of its trees (HT measured or estimated)
+    p1 = rows["parcela"] == 1
+    assert plots["n_trees"][0] == p1.sum()
+    assert np.allclose(plots["residual_m3_ha"], plots["volume_m3_ha"] - plots["predicted_m3_ha"],
+                       atol=2e-3)
+    assert list(stands["stand_id"]) == [f"T{k}" for k in range(1, 7)]
+    assert stands["n_plots"].sum() == 9 and (stands["n_plots_model"] == 9).all()
+    for pre in ("volume", "volume_trees"):
+        est = stands[f"{pre}_m3_ha"].to_numpy()
+        assert (stands[f"{pre}_m3_ha_low"] < est).all()
+        assert (est < stands[f"{pre}_m3_ha_high"]).all()
+        assert np.allclose(stands[f"{pre}_m3"], est * stands["area_ha"], rtol=1e-3)
+        err = est / truth["stands"]["volume_m3_ha"] - 1
+        assert np.abs(err).max() < 0.15, (pre, err)  # 9 plots, 1.2 ha stands (bench: 8 ha)
+    assert (stands["basal_area_m2_ha_low"] < stands["basal_area_m2_ha"]).all()
+    assert {"dap_cm", "volume_m3"} <= set(tops.columns) and len(tops) > 10000
+    assert tops["dap_cm"].between(5, 40).mean() > 0.95
+    with rasterio.open(tmp_path / "vol_volume.tif") as ds:
+        assert ds.descriptions[0] == "volume (m³/ha)" and ds.res == (20.0, 20.0)
+        v = ds.read(1, masked=True)
+        assert 150 < float(v.mean()) < 700
+    rep = json.loads((tmp_path / "vol_report.json").read_text())
+    m = rep["volume_model"]
+    assert m["plots"] == 9 and 1 <= len(m["predictors"]) <= 2 and m["loo_rmse_pct"] < 15
+    assert rep["field"]["heights_estimated"] > 0 and rep["field"]["hypsometric"]["trees"] > 0
+    assert (tmp_path / "vol_report.png").stat().st_size > 10000
+    import sqlite3
+
+    con = sqlite3.connect(out)
+    styled = dict(con.execute("SELECT f_table_name, description FROM layer_styles"))
+    con.close()
+    assert "volume_stands.qml" in styled["stands"]
+
+
+def test_python_in_memory_writes_nothing(farm, tmp_path, monkeypatch):
+    from lidartrees_gis import api as lt
+
+    d, truth, _ = farm
+    monkeypatch.chdir(tmp_path)
+    r = lt.volume(d / "farm.laz", d / "plots.gpkg", stands=d / "stands.gpkg",
+                  trees_table=d / "arvores.csv", plot_radius=11.28, volume_equation=EQ,
+                  resamples=100)
+    assert not list(tmp_path.iterdir())
+    s = r["layers"]["stands"]
+    err = s["volume_m3_ha"].to_numpy() / truth["stands"]["volume_m3_ha"] - 1
+    assert np.abs(err).max() < 0.15
+    spec, grid = r["volume_grid"]
+    assert grid.shape == spec.shape and r["report"]["volume_model"]["plots"] == 9
+
+
+def _bad(capsys, args, tmp_path, out):
+    rc = main(args)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc != 0 and len(err) == 1, err
+    assert not out.exists() and not list(out.parent.glob("vol_*"))
+    return err[0]
+
+
+def test_bad_inputs_one_line_no_output(farm, tmp_path, capsys):
+    import geopandas as gpd
+    import shapely
+
+    d, _, _ = farm
+    out = tmp_path / "vol.gpkg"
+    # plots outside the data (10 km east: a wrong CRS or shifted layer)
+    pl = gpd.read_file(d / "plots.gpkg")
+    pl.set_geometry(pl.geometry.translate(10000, 0)).to_file(tmp_path / "far.gpkg")
+    a = _args(d, out, "-volume_equation", EQ)
+    a[2] = str(tmp_path / "far.gpkg")
+    assert "outside the points" in _bad(capsys, a, tmp_path, out)
+    # plots without a CRS
+    pl.set_crs(None, allow_override=True).to_file(tmp_path / "nocrs.shp")
+    a[2] = str(tmp_path / "nocrs.shp")
+    assert "no CRS" in _bad(capsys, a, tmp_path, out)
+    # a plot without trees
+    extra = gpd.GeoDataFrame({"parcela": [99]}, geometry=[shapely.Point(
+        pl.geometry[0].x + 1, pl.geometry[0].y + 30)], crs=pl.crs)
+    gpd.GeoDataFrame(gpd.pd.concat([pl, extra], ignore_index=True), crs=pl.crs).to_file(
+        tmp_path / "more.gpkg")
+    a[2] = str(tmp_path / "more.gpkg")
+    assert "have no trees" in _bad(capsys, a, tmp_path, out)
+    # DAP in millimetres
+    text = (d / "arvores.csv").read_text(encoding="cp1252").splitlines()
+    mm = [text[0]] + [";".join(f[:2] + [str(round(float(f[2].replace(",", ".")) * 10))] + f[3:])
+                      for f in (ln.split(";") for ln in text[1:])]
+    (tmp_path / "mm.csv").write_text("\n".join(mm) + "\n", encoding="cp1252")
+    a = _args(d, out, "-volume_equation", EQ)
+    a[a.index("-trees_table") + 1] = str(tmp_path / "mm.csv")
+    assert "millimetres" in _bad(capsys, a, tmp_path, out)
+    # too few plots
+    pl.iloc[:3].to_file(tmp_path / "three.gpkg")
+    a = _args(d, out, "-volume_equation", EQ)
+    a[2] = str(tmp_path / "three.gpkg")
+    line = _bad(capsys, a, tmp_path, out)
+    assert "at least 5" in line, line
+    # the tree approach without trees
+    a = _args(d, out, "-approach", "trees")
+    i = a.index("-trees_table")
+    del a[i:i + 2]
+    assert "-trees_table" in _bad(capsys, a, tmp_path, out)
+
+
+def test_field_table_forms(tmp_path):
+    """CAP instead of DAP, English names, a pt-BR equation, heights of a few trees only."""
+    from lidartrees_gis.errors import InputError
+    from lidartrees_gis.inventory.field import Equation, complete_trees, plot_figures, read_trees
+
+    (tmp_path / "t.csv").write_text("plot,tree,cbh,height\n1,1,47.1,20.0\n1,2,53.4,\n"
+                                    "1,3,40.8,18.5\n2,1,50.3,21.0\n2,2,,\n", encoding="utf-8")
+    t = read_trees(tmp_path / "t.csv")
+    assert t["dap"][0] == pytest.approx(47.1 / np.pi) and t["rows_without_dap"] == 1
+    eq = Equation.parse("0,000049;1,85;1,05")
+    assert (eq.b0, eq.b1, eq.b2) == (0.000049, 1.85, 1.05)
+    c = complete_trees(t, eq)
+    assert c["ht_estimated"].tolist() == [False, True, False, False]
+    assert 18.5 < c["ht"][1] < 23  # the thickest tree: Curtis' relation puts it tallest
+    f = plot_figures(c, ["1", "2"], [400.0, 400.0])
+    assert f["n_trees"].tolist() == [3, 1] and f["trees_ha"][0] == pytest.approx(75.0)
+    v1 = eq(c["dap"][:3], c["ht"][:3]).sum() / 0.04
+    assert f["volume_m3_ha"][0] == pytest.approx(v1)
+    with pytest.raises(InputError, match="b0,b1,b2"):
+        Equation.parse("1,2")
