@@ -876,6 +876,114 @@
       <translation>Opção de tabela CSV CHAVE=VALOR: SEPARATOR=COMMA|SEMICOLON|TAB|SPACE, DECIMAL=POINT|COMMA, WRITE_BOM=YES|NO (padrão: o do idioma do sistema; pt_BR: ponto e vírgula, vírgula decimal, BOM); uma tabela com nome .xlsx é uma planilha</translation>
     </message>
     <message>
+      <source>Inventory</source>
+      <translation>Inventário</translation>
+    </message>
+    <message>
+      <source>Standard height metrics (lidR .stdmetrics_z, FUSION L-moments and cover) per cell (multi-band GeoTIFF) or per field plot and stand (GeoPackage)</source>
+      <translation>Métricas de altura padrão (lidR .stdmetrics_z, L-momentos e cobertura do FUSION) por célula (GeoTIFF de várias bandas) ou por parcela e talhão (GeoPackage)</translation>
+    </message>
+    <message>
+      <source>Output: a .tif gets one named band a metric per cell; a .gpkg the layers plot_metrics and stand_metrics</source>
+      <translation>Saída: um .tif recebe uma banda nomeada por métrica em cada célula; um .gpkg as camadas plot_metrics e stand_metrics</translation>
+    </message>
+    <message>
+      <source>Metric cell size (use the plots' size for an area-based model: 20 m for 400 m² plots)</source>
+      <translation>Tamanho da célula das métricas (use o tamanho das parcelas para um modelo de área: 20 m para parcelas de 400 m²)</translation>
+    </message>
+    <message>
+      <source>Plots</source>
+      <translation>Parcelas</translation>
+    </message>
+    <message>
+      <source>Field plots (parcelas): a polygon layer, or plot centres (points) with -plot_radius, PATH or PATH:LAYER</source>
+      <translation>Parcelas de campo: uma camada de polígonos, ou os centros das parcelas (pontos) com -plot_radius, CAMINHO ou CAMINHO:CAMADA</translation>
+    </message>
+    <message>
+      <source>Plot id</source>
+      <translation>Id da parcela</translation>
+    </message>
+    <message>
+      <source>The plots' id field (default: the first of plot_id, parcela, id_parcela, plot, id, name present; else 1, 2, ...)</source>
+      <translation>O campo de id das parcelas (padrão: o primeiro presente entre plot_id, parcela, id_parcela, plot, id, name; senão 1, 2, ...)</translation>
+    </message>
+    <message>
+      <source>Plot radius</source>
+      <translation>Raio da parcela</translation>
+    </message>
+    <message>
+      <source>Radius of circular plots given by their centres (11.28 m for 400 m²)</source>
+      <translation>Raio das parcelas circulares dadas pelos centros (11,28 m para 400 m²)</translation>
+    </message>
+    <message>
+      <source>Stand (talhão) polygons, PATH or PATH:LAYER</source>
+      <translation>Polígonos dos talhões, CAMINHO ou CAMINHO:CAMADA</translation>
+    </message>
+    <message>
+      <source>The stands' id field (default: stand_id, talhao, ... or numbered)</source>
+      <translation>O campo de id dos talhões (padrão: stand_id, talhao, ... ou numerados)</translation>
+    </message>
+    <message>
+      <source>Min height</source>
+      <translation>Altura mínima</translation>
+    </message>
+    <message>
+      <source>Metrics of the returns above this height (m); none = of every return (lidR's pixel_metrics default); cover counts the first returns above it</source>
+      <translation>Métricas dos retornos acima desta altura (m); none = de todos os retornos (o padrão do pixel_metrics do lidR); a cobertura conta os primeiros retornos acima dela</translation>
+    </message>
+    <message>
+      <source>Metrics of all returns or of the first returns</source>
+      <translation>Métricas de todos os retornos ou dos primeiros retornos</translation>
+    </message>
+    <message>
+      <source>Ground for the heights (see chm); none = heights already normalised</source>
+      <translation>Terreno para as alturas (veja chm); none = alturas já normalizadas</translation>
+    </message>
+    <message>
+      <source>Wood volume per stand (m³/ha, m³, basal area) with 95 % intervals, from LiDAR and field plots: area-based model and/or detected trees</source>
+      <translation>Volume de madeira por talhão (m³/ha, m³, área basal) com intervalos de 95 %, a partir do LiDAR e das parcelas de campo: modelo de área e/ou árvores detectadas</translation>
+    </message>
+    <message>
+      <source>Field plots (parcelas): a polygon layer, or plot centres (points) with -plot_radius; may carry volume_m3_ha when there is no tree table</source>
+      <translation>Parcelas de campo: uma camada de polígonos, ou os centros das parcelas (pontos) com -plot_radius; pode trazer volume_m3_ha quando não há tabela de árvores</translation>
+    </message>
+    <message>
+      <source>Output GeoPackage (layers plots, stands, tree_tops); OUT_volume.tif (m³/ha), OUT_report.json and OUT_report.png beside it</source>
+      <translation>GeoPackage de saída (camadas plots, stands, tree_tops); OUT_volume.tif (m³/ha), OUT_report.json e OUT_report.png ao lado</translation>
+    </message>
+    <message>
+      <source>Trees table</source>
+      <translation>Tabela de árvores</translation>
+    </message>
+    <message>
+      <source>Field trees table (CSV/TXT, pt-BR or English): plot (parcela), tree (arvore), DAP cm (dap) or CAP cm (cap), HT m (ht, for all or some trees), volume m³ (optional)</source>
+      <translation>Tabela das árvores de campo (CSV/TXT, pt-BR ou inglês): parcela, arvore, DAP cm (dap) ou CAP cm (cap), HT m (ht, de todas ou de algumas árvores), volume m³ (opcional)</translation>
+    </message>
+    <message>
+      <source>Volume equation</source>
+      <translation>Equação de volume</translation>
+    </message>
+    <message>
+      <source>Schumacher-Hall coefficients b0,b1,b2 of V = b0·DAP^b1·HT^b2 (DAP cm, HT m, V m³); default: fitted on the trees that carry a volume</source>
+      <translation>Coeficientes b0,b1,b2 de Schumacher-Hall de V = b0·DAP^b1·HT^b2 (DAP cm, HT m, V m³); padrão: ajustados nas árvores que trazem volume</translation>
+    </message>
+    <message>
+      <source>Approach</source>
+      <translation>Abordagem</translation>
+    </message>
+    <message>
+      <source>aba = area-based model of the plots' height metrics; trees = detected trees' volume from their heights, scaled by the plots; both</source>
+      <translation>aba = modelo de área com as métricas de altura das parcelas; trees = volume das árvores detectadas a partir das alturas, ajustado pelas parcelas; both = ambos</translation>
+    </message>
+    <message>
+      <source>Cell size of the wall-to-wall metrics: auto = the plots' size (20 m for 400 m² plots)</source>
+      <translation>Tamanho da célula das métricas em toda a área: auto = o tamanho das parcelas (20 m para parcelas de 400 m²)</translation>
+    </message>
+    <message>
+      <source>Bootstrap resamples of the plots for the intervals</source>
+      <translation>Reamostragens bootstrap das parcelas para os intervalos</translation>
+    </message>
+    <message>
       <source>Demo</source>
       <translation>Demonstração</translation>
     </message>
@@ -922,6 +1030,14 @@
     <message>
       <source>Queiroz (2017), vertical segmentation of mangrove trees into roots, stem and canopy from the point-density profile.</source>
       <translation>Queiroz (2017), segmentação vertical de árvores de mangue em raízes, tronco e copa pelo perfil de densidade de pontos.</translation>
+    </message>
+    <message>
+      <source>lidR's stdmetrics_z (Roussel, J.-R. et al. (2020), lidR, Remote Sensing of Environment 251, 112061); FUSION's L-moments and cover (McGaughey, R. J., FUSION/LDV manual). Definitions: docs/VOLUME.md.</source>
+      <translation>stdmetrics_z do lidR (Roussel, J.-R. et al. (2020), lidR, Remote Sensing of Environment 251, 112061); L-momentos e cobertura do FUSION (McGaughey, R. J., manual do FUSION/LDV). Definições: docs/VOLUME.md.</translation>
+    </message>
+    <message>
+      <source>Area-based approach (Næsset, E. (2002), Remote Sensing of Environment 80, 88-99); Schumacher, F. X. &amp; Hall, F. S. (1933) volume equation; eucalyptus plantations: Silva, C. A. et al. (2016), Forestry. Model form, intervals and limits: docs/VOLUME.md.</source>
+      <translation>Abordagem de área (Næsset, E. (2002), Remote Sensing of Environment 80, 88-99); equação de volume de Schumacher, F. X. &amp; Hall, F. S. (1933); plantios de eucalipto: Silva, C. A. et al. (2016), Forestry. Forma do modelo, intervalos e limites: docs/VOLUME.md.</translation>
     </message>
     <message>
       <source>LiDAR Trees: the 'lidartrees' command was not found. Install the lidartrees_gis package in its own environment (python3 -m venv ~/.venvs/lidartrees &amp;&amp; ~/.venvs/lidartrees/bin/pip install /path/to/lidartrees_gis, the package's folder or wheel) and, if it is not on the PATH, set the environment variable LIDARTREES_EXE or the QGIS setting '{setting}' to its path.</source>
