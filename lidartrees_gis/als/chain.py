@@ -303,7 +303,8 @@ def _area_grids(runner, area, p: TreeParams, plan: AreaPlan, surface, stands, pr
     from .positions import add_anchors
     from .tile import number_regions
 
-    grids = fit_stand_grids(x, y, z if stands is not None else None, p.spacing, whole=True)
+    grids = fit_stand_grids(x, y, z if stands is not None else None, p.spacing, whole=True,
+                            cell=plan.res)
     # where each stand's row and plant numbers start: made once here, for every tile
     zones = [-1] + ([] if stands is None else list(range(len(stands))))
     return add_anchors(grids, number_regions(stands, area.extent), plan.res, zones)

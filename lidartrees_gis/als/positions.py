@@ -34,7 +34,7 @@ def _canonical(tx, ty):
 
 
 def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None = None, *,
-                    zones=None, whole: bool = False) -> dict:
+                    zones=None, whole: bool = False, cell: float = 0.0) -> dict:
     """The planting lattice of every stand: ``{zone: PlantingGrid or None}``, and ``"all"``
     (the lattice of all the tops: that of an area without stands, and of a stand with too few
     tops of its own) where one needs it or ``whole`` asks for it.
@@ -47,7 +47,8 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
     ``grid``: the lattice of all the tops when already found. The tops are taken in an order
     of their own (:func:`_canonical`), so a whole area's tops and the same tops gathered from
     its tiles give the same lattices: a run in tiles fits each stand once, from all its tiles'
-    tops, and every tile counts its positions on that lattice.
+    tops, and every tile counts its positions on that lattice. ``cell``: the CHM's cell size
+    (see :func:`~lidartrees_gis.als.stocking.detect_planting`).
     """
     from .stocking import PLANTING_MIN_TREES, detect_planting
 
@@ -58,7 +59,7 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
     out = {}
 
     def fit(x, y):
-        return detect_planting(x, y) if auto else fit_planting_grid(x, y, *spacing)
+        return detect_planting(x, y, cell=cell) if auto else fit_planting_grid(x, y, *spacing)
 
     def all_tops():
         if "all" not in out:
@@ -172,7 +173,7 @@ def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: flo
     present = np.unique(zone[np.isfinite(a) & (a >= min_height)]).tolist()
     if grids is None:
         grids = fit_stand_grids(tx, ty, top_zone if zoned else None, spacing, grid,
-                                zones=present if zoned else None)
+                                zones=present if zoned else None, cell=spec.res)
     if regions:
         add_anchors(grids, regions, spec.res, present)
     masks = {}

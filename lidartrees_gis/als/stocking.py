@@ -424,8 +424,8 @@ DIRECTION_REACH = 6.0
 
 
 def _refine_direction(dx, dy, a, row0, tree0, n: int = 3000) -> float:
-    """The row direction (radians) within :data:`DIRECTION_REACH` of ``a`` (the 1° histogram's) on which the
-    positions concentrate most along and across the rows, each at its best period within
+    """The row direction (radians) within :data:`DIRECTION_REACH` of ``a`` (the first guess) on
+    which the positions concentrate most along and across the rows, each at its best period within
     ±15 % of ``tree0`` and ``row0``: half a degree off, 90 m of rows drift 0.8 m across, and
     the periods measured there are a few percent off (a 3.5 x 2.5 m stand read as 3.61 x 2.61,
     whose lattice then fits nothing)."""
@@ -458,9 +458,12 @@ SPECTRAL_PERIODS = (1.0, 4.8)
 SPECTRAL_BIN = 0.05
 #: ... and takes a peak for a lattice's when random positions would reach it with this chance
 SPECTRAL_CHANCE = 1e-6
+#: a lattice's periods span at least this many CHM cells (tops on the cell centres: the cells'
+#: own grid has a period of one cell; two tops less than two cells apart are not resolved)
+MIN_PERIOD_CELLS = 2.0
 
 
-def _spectral_guess(dx, dy):
+def _spectral_guess(dx, dy, cell: float = 0.0):
     """Row direction (radians) and the periods across and along the rows, from the power
     spectrum of the positions ``dx, dy`` projected on every direction (0.5° steps): the
     direction whose projection is most periodic within :data:`SPECTRAL_PERIODS` is one axis
@@ -473,8 +476,15 @@ def _spectral_guess(dx, dy):
     one in a million (the mean resultant length of N random phases exceeds ``t`` with chance
     ``exp(-N t²)``); random trees are given up on here.
 
+    ``cell``: the CHM's cell size (m), when the tops lie on its cell centres: periods shorter
+    than :data:`MIN_PERIOD_CELLS` cells are not looked at (the cells' own grid, one cell
+    apart, is as periodic as a lattice and no lattice that fine is resolved).
+
     Returns ``(azimuth, row_period, tree_period)`` or None."""
-    lo, hi = 1.0 / SPECTRAL_PERIODS[1], 1.0 / SPECTRAL_PERIODS[0]
+    lo = 1.0 / SPECTRAL_PERIODS[1]
+    hi = 1.0 / max(SPECTRAL_PERIODS[0], MIN_PERIOD_CELLS * cell)
+    if hi <= lo:
+        return None
     extent = float(max(np.ptp(dx), np.ptp(dy), 1.0))
     cells = 360 * max((hi - lo) * extent, 1.0)  # directions x independent frequencies
     level = float(np.sqrt(np.log(cells / SPECTRAL_CHANCE) / max(dx.size, 1)))
@@ -507,14 +517,15 @@ def _spectral_guess(dx, dy):
 
 
 def detect_planting(x, y, *, min_trees: int = PLANTING_MIN_TREES,
-                    min_fit: float = PLANTING_MIN_FIT):
+                    min_fit: float = PLANTING_MIN_FIT, cell: float = 0.0):
     """The planting lattice under tree tops, if they lie on one, else None.
 
     The row direction is the commonest direction to the two nearest neighbours (1° bins);
     the spacing in the row and between rows are the medians of each top's nearest neighbour
     along (within 8°) and across (beyond 70°) that direction, refined to the periods on which
     the positions concentrate most; :func:`fit_planting_grid` then fits the lattice. It is
-    accepted when at least ``min_trees`` tops give a fit of at least ``min_fit``.
+    accepted when at least ``min_trees`` tops give a fit of at least ``min_fit`` and its
+    spacings span :data:`MIN_PERIOD_CELLS` of the CHM's cells ``cell`` (m; 0: any).
 
     Returns
     -------
@@ -561,17 +572,21 @@ def detect_planting(x, y, *, min_trees: int = PLANTING_MIN_TREES,
     dx, dy = px - px.mean(), py - py.mean()
     g = None
     if not spread and np.isfinite(along).any() and np.isfinite(across).any():
-        g = _detect_from(x, y, dx, dy, np.radians(a0), float(np.median(across[np.isfinite(across)])),
+        g = _detect_from(x, y, dx, dy, np.radians(a0),
+                         float(np.median(across[np.isfinite(across)])),
                          float(np.median(along[np.isfinite(along)])), min_fit)
     if g is None or g.fit < min_fit:
         # the neighbours' directions misled (a CHM grid's favoured directions, extra tops
         # between the trees): the positions' spectrum instead
-        guess = _spectral_guess(dx, dy)
+        guess = _spectral_guess(dx, dy, cell)
         if guess is not None:
             g2 = _detect_from(x, y, dx, dy, *guess, min_fit)
             if g2 is not None and (g is None or g2.fit > g.fit):
                 g = g2
-    return g if g is not None and g.fit >= min_fit else None
+    if g is None or g.fit < min_fit or \
+            min(g.row_spacing, g.tree_spacing) < MIN_PERIOD_CELLS * cell:
+        return None
+    return g
 
 
 def _detect_from(x, y, dx, dy, a, row0, tree0, min_fit):
