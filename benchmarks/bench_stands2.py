@@ -113,6 +113,14 @@ def score_stand(st, stands, gaps, tops):
     stock = _num(rec.get("stocking_pct")) if len(s) else None
     row["stocking_found"] = None if stock is None else round(stock, 2)
     row["stocking_err_pts"] = None if stock is None else round(stock - st["stocking_pct"], 2)
+    lo = _num(rec.get("stocking_pct_low")) if len(s) else None
+    hi = _num(rec.get("stocking_pct_high")) if len(s) else None
+    row["stocking_low"] = None if lo is None else round(lo, 2)
+    row["stocking_high"] = None if hi is None else round(hi, 2)
+    # the truth inside the stand's 95 % interval (None without one)
+    row["truth_in_interval"] = (None if lo is None or hi is None
+                                else bool(lo - 0.005 <= st["stocking_pct"] <= hi + 0.005))
+    row["lattice_field"] = rec.get("lattice") if len(s) else None
     row["positions_found"] = int(_num(rec.get("planting_positions")) or 0) if len(s) else 0
     for key in ("missing_trees", "uncertain_positions", "suppressed_trees"):
         row[key] = int(_num(rec.get(key)) or 0) if len(s) else 0
@@ -216,7 +224,8 @@ RESCORE = False  # --rescore: score the outputs kept in --work (runs without the
 
 COLUMNS = ("config", "talhao", "design", "azimuth_true", "density", "slope_pct", "lattice_ok",
            "spacing_found", "azimuth_found", "positions_true", "positions_found",
-           "stocking_true", "stocking_err_pts", "gap_precision", "missing_recall", "tree_f")
+           "stocking_true", "stocking_err_pts", "truth_in_interval", "gap_precision",
+           "missing_recall", "tree_f")
 
 
 def main(argv=None):
