@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..crs import crs_label
+from ..crs import check_coordinates, crs_label
 from ..errors import CRSError, InputError
 from ..io.options import ReadOptions
 from .inputs import ept_crs, expand_inputs, is_ept
@@ -48,6 +48,7 @@ class Catalog:
             if a_srs is not None:
                 read = read.with_crs(a_srs)
         bounds, counts, crs, skipped, repro, repros = [], [], None, 0, None, []
+        overridden = []  # the files' own CRSs that -a_srs replaces
         for f in files:
             src = read.open(f)
             hb = src.header_bounds() if src.format == "las" else None
@@ -59,6 +60,11 @@ class Catalog:
                 bounds.append(tuple(st.bounds))
                 counts.append(int(st.count))
                 skipped += int(st.skipped or 0)
+                if src.format != "las" and src.repro is None:  # LAS: checked on its header
+                    check_coordinates(src.crs, st.bounds, f, given=src.file_crs is None)
+            if read.a_srs is not None and src.file_crs is not None \
+                    and not src.file_crs.equals(src.src_crs, ignore_axis_order=True):
+                overridden.append(crs_label(src.file_crs))
             repro = repro or src.repro
             repros.append(src.repro)
             if src.crs is not None:
@@ -70,6 +76,8 @@ class Catalog:
                         f"{crs_label(crs)}; give -t_srs (e.g. -t_srs {crs_label(crs).split()[0]}) "
                         "to transform every file from its own CRS into one (-a_srs would only "
                         "relabel them and misplace the data)")
+        if overridden:
+            warn_overridden(overridden, len(files), crs)
         return cls(files, bounds, counts, crs, read, skipped, repro, repros)
 
     @property
@@ -118,6 +126,20 @@ class Catalog:
         x0, y0, x1, y1 = box
         return [f for f, b in zip(self.files, self.bounds)
                 if b[0] <= x1 and b[2] >= x0 and b[1] <= y1 and b[3] >= y0]
+
+
+def warn_overridden(labels: list, files: int, crs) -> None:
+    """One warning that -a_srs replaces the CRS the files carry (``labels``: each overridden
+    file's own CRS): how many files and which CRSs."""
+    import warnings
+
+    from ..errors import DataWarning
+
+    kinds = sorted(set(labels))
+    warnings.warn(DataWarning(
+        f"-a_srs {crs_label(crs)} overrides the CRS of {len(labels)} of {files} file(s), which "
+        f"carry {'; '.join(kinds)}: their coordinates are relabelled, not transformed (give "
+        "-t_srs instead of -a_srs to transform them)"), stacklevel=3)
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,105 @@
+"""Issue 42 (part B): inputs the project cannot read rightly are refused or warned in one line.
+Each test failed (exit 0, no warning, a wrong result) before its fix."""
+import numpy as np
+import pyproj
+import pytest
+
+from lidartrees_gis.cli import main
+from lidartrees_gis.io.lasout import write_points
+
+from _paths import DATA
+
+MIXED = DATA / "lidR_extdata" / "MixedConifer.laz"
+needs_data = pytest.mark.skipif(not MIXED.exists(), reason="shared data not found")
+
+
+def _with_records(src, dst, *wkt_epsg, drop_geokeys=False, version=None):
+    """``src`` with extra OGC WKT CRS records (EPSG codes), optionally without its GeoKeys, or
+    rewritten as LAS 1.4 point format 6 whose WKT bit is set and CRS records only WKT."""
+    import laspy
+    from laspy.vlrs.known import GeoKeyDirectoryVlr, WktCoordinateSystemVlr
+
+    las = laspy.read(str(src))
+    if version == "1.4":
+        las = laspy.convert(las, point_format_id=6, file_version="1.4")
+        las.header.global_encoding.wkt = True
+        drop_geokeys = True
+    if drop_geokeys:
+        keep = [v for v in las.header.vlrs if not isinstance(v, GeoKeyDirectoryVlr)]
+        las.header.vlrs.clear()
+        las.header.vlrs.extend(keep)
+    for code in wkt_epsg:
+        las.header.vlrs.append(WktCoordinateSystemVlr(pyproj.CRS.from_epsg(code).to_wkt()))
+    las.write(str(dst))
+    return dst
+
+
+def _err(capsys):
+    return [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+
+
+@needs_data
+def test_las12_geokeys_win_over_an_extra_wkt_record_with_one_warning(tmp_path, capsys):
+    f = _with_records(MIXED, tmp_path / "mc.laz", 31984)
+    out = tmp_path / "chm.tif"
+    assert main(["chm", str(f), str(out), "-tr", "1", "-q"]) == 0
+    import rasterio
+
+    with rasterio.open(out) as ds:
+        assert ds.crs.to_epsg() == 26912
+    err = _err(capsys)
+    hits = [e for e in err if "CRS records disagree" in e]
+    assert len(hits) == 1 and "EPSG:26912" in hits[0] and "GeoKeys" in hits[0] \
+        and "LAS 1.2" in hits[0] and "31984" in hits[0]
+
+
+@needs_data
+def test_las14_uses_its_first_wkt_record_and_says_so(tmp_path, capsys):
+    f = _with_records(MIXED, tmp_path / "mc14.laz", 26912, 31984, version="1.4")
+    assert main(["info", str(f), "-q"]) == 0
+    c = capsys.readouterr()
+    assert "crs: EPSG:26912" in c.out
+    assert "WKT bit" in c.err and "31984" in c.err
+
+
+@needs_data
+def test_wkt_4326_on_metres_is_refused_by_info(tmp_path, capsys):
+    f = _with_records(MIXED, tmp_path / "deg.laz", 4326, drop_geokeys=True)
+    assert main(["info", str(f), "-q"]) == 1
+    err = _err(capsys)
+    assert len(err) == 1 and "cannot be in the declared CRS" in err[0] and str(f) in err[0]
+    assert "481" in err[0]  # the extent is named (x 481,260..481,350)
+    # with the right CRS given, the file reads
+    assert main(["info", str(f), "-a_srs", "EPSG:26912", "-q"]) == 0
+
+
+def test_metres_labelled_4326_in_xyz_and_degrees_labelled_utm_are_refused(tmp_path, capsys):
+    rng = np.random.default_rng(1)
+    m = tmp_path / "m.xyz"
+    m.write_text("".join(f"{500000 + a:.2f} {7500000 + b:.2f} {c:.2f}\n" for a, b, c in
+                         rng.random((300, 3)) * 90))
+    assert main(["info", str(m), "-a_srs", "EPSG:4326", "-q"]) == 1
+    err = _err(capsys)
+    assert len(err) == 1 and "cannot be in the declared CRS" in err[0] and "500,0" in err[0]
+    d = tmp_path / "d.las"
+    x, y = -111.0 + rng.random(500) * 0.001, 45.0 + rng.random(500) * 0.001
+    write_points(d, x, y, rng.random(500) * 20, crs=pyproj.CRS.from_epsg(26912))
+    assert main(["trees", str(d), str(tmp_path / "t.gpkg"), "-q"]) == 1
+    err = _err(capsys)
+    assert len(err) == 1 and "cannot be in the declared CRS" in err[0] and "degrees" in err[0]
+    assert not (tmp_path / "t.gpkg").exists()
+
+
+def test_a_srs_over_files_with_their_own_crs_says_it_overrides_them(tmp_path, capsys):
+    rng = np.random.default_rng(2)
+    (tmp_path / "in").mkdir()
+    for i, code in enumerate((31983, 29193)):  # SIRGAS 2000 and SAD69 / UTM 23S
+        x = 300000 + i * 60 + rng.random(3000) * 60
+        y = 7400000 + rng.random(3000) * 60
+        write_points(tmp_path / "in" / f"f{i}.las", x, y, rng.random(3000) * 20,
+                     crs=pyproj.CRS.from_epsg(code))
+    out = tmp_path / "g.tif"
+    assert main(["grid", str(tmp_path / "in"), str(out), "-a_srs", "EPSG:31983", "-q"]) == 0
+    hits = [e for e in _err(capsys) if "overrides" in e]
+    assert len(hits) == 1 and "1 of 2 file(s)" in hits[0] and "SAD69" in hits[0] \
+        and "-t_srs" in hits[0]
