@@ -203,12 +203,18 @@ def missing_crs_hint(x=None, y=None) -> str:
 #: how far (degrees) the points may lie outside a projected CRS's area of use before their
 #: coordinates are taken for degrees mislabelled
 AREA_OF_USE_MARGIN = 1.0
+#: a projected CRS's points spanning at most this (its units) and within +-180 / +-90 may be
+#: degrees (a degree is about 111 km: no acquisition spans more); wider local coordinates are not
+DEGREE_SPAN = 1.0
+#: points within this of (0, 0) are taken for a local frame (a scanner at the origin), not
+#: degrees, whatever CRS they are labelled with
+LOCAL_ORIGIN = 2.0
 
 
 def check_coordinates(crs, bounds, where, *, given: bool = False) -> None:
     """Refuse coordinates that cannot be in ``crs``: a geographic CRS (degrees) with x beyond
     +-180 or y beyond +-90 (metres labelled e.g. EPSG:4326), or a projected CRS whose points
-    all lie within +-180, +-90 and, read in it, fall outside its area of use (longitude and
+    all lie within +-180, +-90 and :data:`DEGREE_SPAN`, away from the origin (:data:`LOCAL_ORIGIN`), and, read in it, fall outside its area of use (longitude and
     latitude in degrees labelled e.g. UTM). ``bounds`` (xmin, ymin, xmax, ymax); ``where``
     names the file; ``given``: the CRS came from -a_srs."""
     if crs is None or bounds is None:
@@ -226,7 +232,8 @@ def check_coordinates(crs, bounds, where, *, given: bool = False) -> None:
                 f"{label} (degrees) but the points span {extent}, beyond longitude +-180 / "
                 f"latitude +-90 (metres?); give the delivery's projected CRS with -a_srs")
         return
-    if not crs.is_projected or max(abs(x0), abs(x1)) > 180.0 or max(abs(y0), abs(y1)) > 90.0:
+    if not crs.is_projected or max(abs(x0), abs(x1)) > 180.0 or max(abs(y0), abs(y1)) > 90.0 \
+            or max(x1 - x0, y1 - y0) > DEGREE_SPAN or max(abs(x0), abs(y0)) < LOCAL_ORIGIN:
         return
     aou = crs.area_of_use
     if aou is None or aou.west > aou.east:  # none stated, or across the antimeridian
