@@ -103,3 +103,51 @@ def test_a_srs_over_files_with_their_own_crs_says_it_overrides_them(tmp_path, ca
     hits = [e for e in _err(capsys) if "overrides" in e]
     assert len(hits) == 1 and "1 of 2 file(s)" in hits[0] and "SAD69" in hits[0] \
         and "-t_srs" in hits[0]
+
+
+def _cloud(path, n=4000, cls=1, seed=0):
+    rng = np.random.default_rng(seed)
+    x, y = 500_000 + rng.random(n) * 40, 7_000_000 + rng.random(n) * 40
+    write_points(path, x, y, rng.random(n) * 20, crs=pyproj.CRS.from_epsg(31984),
+                 classification=np.full(n, cls, np.uint8))
+    return path
+
+
+@pytest.mark.parametrize("cmd,out", [("chm", "o.tif"), ("trees", "o.gpkg"), ("grid", "o.tif")])
+def test_no_point_after_the_class_filter_is_an_error_with_no_output(tmp_path, capsys, cmd, out):
+    noise = _cloud(tmp_path / "noise.las", cls=7)
+    assert main([cmd, str(noise), str(tmp_path / out), "-tr", "1", "-q"]) == 1
+    err = _err(capsys)
+    assert len(err) == 1 and "no points left" in err[0] and "-drop_class 7,18" in err[0]
+    ok = _cloud(tmp_path / "ok.las", cls=1)
+    assert main([cmd, str(ok), str(tmp_path / out), "-tr", "1", "-keep_class", "5", "-q"]) == 1
+    assert "no points left" in _err(capsys)[0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["noise.las", "ok.las"]
+
+
+@pytest.mark.parametrize("n", [1, 50])
+def test_a_cloud_at_one_location_is_an_error_with_no_output(tmp_path, capsys, n):
+    f = tmp_path / "p.las"
+    write_points(f, np.full(n, 500_010.0), np.full(n, 7_000_010.0), np.full(n, 12.0),
+                 crs=pyproj.CRS.from_epsg(31984))
+    for cmd, out in (("chm", "o.tif"), ("trees", "o.gpkg")):
+        assert main([cmd, str(f), str(tmp_path / out), "-tr", "1", "-q"]) == 1
+        err = _err(capsys)
+        assert len(err) == 1 and "degenerate point cloud" in err[0] and f"{n:,} point" in err[0]
+    assert [p.name for p in tmp_path.iterdir()] == ["p.las"]
+
+
+def test_no_tree_where_the_canopy_rises_above_min_height_is_an_error():
+    from lidartrees_gis.als.chain import check_trees
+    from lidartrees_gis.als.trees import TreeParams
+    from lidartrees_gis.catalog.catalog import Catalog
+
+    class Plan:
+        canopy_windows, dominant_height = 1, 18.0
+
+    area = Catalog(["a.las"], [(0, 0, 10, 10)], [100])
+    with pytest.raises(Exception, match="no tree found, though the canopy rises"):
+        check_trees(area, Plan, 0, TreeParams())
+    check_trees(area, Plan, 3, TreeParams())  # trees found: no error
+    Plan.canopy_windows = 0
+    check_trees(area, Plan, 0, TreeParams())  # no canopy: 0 trees is the right answer

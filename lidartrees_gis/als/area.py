@@ -223,10 +223,22 @@ class AreaPlan:
     tiles: tuple
     buffer: float
     tile_size: float  # m (inf: one tile)
+    canopy_windows: int = 0  # windows with canopy above -min_height (trees only)
 
     @property
     def one_tile(self) -> bool:
         return len(self.tiles) == 1
+
+
+def check_degenerate(area) -> None:
+    """Refuse a cloud of points that cover no area at all (one point, or every point at the
+    same x and y): no surface or tree can be made of it."""
+    if isinstance(area, RasterArea):
+        return
+    x0, y0, x1, y1 = area.extent
+    if x1 - x0 <= 0 and y1 - y0 <= 0:
+        raise InputError(f"{area.label()}: degenerate point cloud: its {area.count:,} point(s) "
+                         f"lie at one location (x {x0:.2f}, y {y0:.2f}); nothing to grid")
 
 
 def one_tile_area(area) -> bool:
@@ -324,6 +336,7 @@ def plan_area(area, surface: SurfaceOptions, tiling: TilingOptions, *, runner, p
         return runner.map(fn, items, args, ordered=True, label="window",
                           progress=SubProgress(prog, 0.3, 1.0))
 
+    check_degenerate(area)
     res, density, windows = _resolution(area, surface, tiling, rule, runner,
                                         SubProgress(prog, 0.0, 0.3))
     x0, y0, x1, y1 = area.extent
@@ -351,8 +364,9 @@ def plan_area(area, surface: SurfaceOptions, tiling: TilingOptions, *, runner, p
     if not tiling.any_size:
         check_tile_size(tiling.tile_size, ts, res, buf)
     tiles = tuple(make_tiles(area.extent, ts, buf))
+    canopy = sum(1 for m in measures if np.isfinite(m["p95"]))
     plan = AreaPlan(res, density, stats, cs, source, hd, max(tops) if tops else None,
-                    len(windows), tiles, buf, ts)
+                    len(windows), tiles, buf, ts, canopy)
     return plan, kept
 
 
