@@ -151,3 +151,63 @@ def test_no_tree_where_the_canopy_rises_above_min_height_is_an_error():
     check_trees(area, Plan, 3, TreeParams())  # trees found: no error
     Plan.canopy_windows = 0
     check_trees(area, Plan, 0, TreeParams())  # no canopy: 0 trees is the right answer
+
+
+def _far(tmp_path):
+    """MixedConifer with 3 points moved 2-10 km away (as the issue's trials)."""
+    import laspy
+
+    las = laspy.read(str(MIXED))
+    x, y = np.array(las.x), np.array(las.y)
+    idx = [10, 2000, 30000]
+    x[idx] += [2000, 5000, -3000]
+    y[idx] += [-4000, 10000, 0]
+    las.x, las.y = x, y
+    las.update_header()
+    f = tmp_path / "far.laz"
+    las.write(str(f))
+    return f
+
+
+def _value(out, key):
+    return next(line.split(": ", 1)[1] for line in out.splitlines() if line.startswith(key + ":"))
+
+
+@needs_data
+@pytest.mark.parametrize("tr", [[], ["-tr", "0.5"]])
+def test_far_points_leave_the_trees_unchanged(tmp_path, capsys, tr):
+    far = _far(tmp_path)
+    assert main(["trees", str(MIXED), str(tmp_path / "a.gpkg"), *tr, "-q"]) == 0
+    ref = capsys.readouterr().out
+    assert main(["trees", str(far), str(tmp_path / "b.gpkg"), *tr, "-q"]) == 0
+    c = capsys.readouterr()
+    assert _value(c.out, "trees") == _value(ref, "trees")
+    assert _value(c.out, "far_points") == "3"
+    assert sum("lie far from the other 37,654" in e for e in c.err.splitlines()) == 1
+    import geopandas as gpd
+
+    a = gpd.read_file(tmp_path / "a.gpkg", layer="tree_tops")
+    b = gpd.read_file(tmp_path / "b.gpkg", layer="tree_tops")
+    # the same trees; at most the 3 whose highest return was moved away are lower
+    assert np.allclose(np.sort(a.geometry.x), np.sort(b.geometry.x), atol=0.01)
+    assert (np.abs(np.sort(a["height"]) - np.sort(b["height"])) > 0.01).sum() <= 3
+
+
+@needs_data
+def test_far_points_in_grid_chm_ground_and_dtm_quality(tmp_path, capsys):
+    import rasterio
+
+    far = _far(tmp_path)
+    for cmd in ("grid", "chm"):
+        assert main([cmd, str(far), str(tmp_path / f"{cmd}.tif"), "-tr", "1", "-q"]) == 0
+        assert _value(capsys.readouterr().out, "far_points") == "3"
+        with rasterio.open(tmp_path / f"{cmd}.tif") as ds:
+            assert ds.width <= 92 and ds.height <= 92
+    assert main(["ground", str(MIXED), str(tmp_path / "g0.laz"), "-q"]) == 0
+    ref = int(_value(capsys.readouterr().out, "ground"))
+    assert main(["ground", str(far), str(tmp_path / "g1.laz"), "-q"]) == 0  # hung before
+    out = capsys.readouterr().out
+    assert abs(int(_value(out, "ground")) - ref) <= 3 and _value(out, "far_points") == "3"
+    assert main(["dtm-quality", str(far), str(tmp_path / "dq"), "-g", "-2:0:1", "-w", "1:2:1",
+                 "-q"]) == 0  # hung before
+    assert "lie far from the other" in capsys.readouterr().err

@@ -180,6 +180,7 @@ def _result(area, plan: AreaPlan, summary: Tally) -> dict:
             "points_read": summary.points or None, "tiles": len(plan.tiles),
             "buffer": round(plan.buffer, 2) if len(plan.tiles) > 1 else None, "res": plan.res,
             **filter_report(summary.dropped), "outlier_points": summary.outliers or None,
+            "far_points": getattr(area, "far", 0) or None,
             "skipped": getattr(area, "skipped", 0) or None, "reprojection": repro_report(area)}
 
 

@@ -35,6 +35,8 @@ class Catalog:
     skipped: int = 0  # malformed XYZ lines skipped (with read.skip_invalid)
     repro: object = None  # the -t_srs reprojection (of the first file), or None
     repros: list = field(default_factory=list)  # each file's -t_srs reprojection (or None)
+    keep_box: tuple | None = None  # points outside it are stray and left out (drop_far_points)
+    far: int = 0  # the stray points left out
 
     @classmethod
     def open(cls, inputs, read: ReadOptions | None = None) -> "Catalog":
@@ -78,7 +80,65 @@ class Catalog:
                         "relabel them and misplace the data)")
         if overridden:
             warn_overridden(overridden, len(files), crs)
-        return cls(files, bounds, counts, crs, read, skipped, repro, repros)
+        cat = cls(files, bounds, counts, crs, read, skipped, repro, repros)
+        cat.drop_far_points()
+        return cat
+
+    def header_bounds(self):
+        """The area's extent (for :func:`lidartrees_gis.grid.resolve_resolution`)."""
+        return self.extent
+
+    @property
+    def count_hint(self) -> int:
+        """The points of the area less the stray ones left out."""
+        return self.count - self.far
+
+    def keeps(self, x, y) -> np.ndarray:
+        """Which of the points ``(x, y)`` are not stray (all of them when none was found)."""
+        x, y = np.asarray(x), np.asarray(y)
+        if self.keep_box is None:
+            return np.ones(x.shape, bool)
+        x0, y0, x1, y1 = self.keep_box
+        return (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
+
+    def drop_far_points(self) -> int:
+        """Find the few points far from all the others (:func:`far_points`; a typo in a
+        coordinate, a return from a bird or an aircraft's other strip) and leave them out of
+        everything: the area's extent, its tiles and every file's points become those of the
+        others, so they change neither the cell size nor the tiles nor the trees. One warning
+        names them; their count is in :attr:`far` (and each command's summary). Looked for
+        when the area holds at most :data:`FAR_CHECK_POINTS` points (one read of them all)."""
+        if not 10 <= self.count <= FAR_CHECK_POINTS:
+            return 0
+        from .source import TileSource
+
+        xs, ys = [], []
+        for c in TileSource(self, self.extent).chunks():
+            xs.append(np.asarray(c.x, float))
+            ys.append(np.asarray(c.y, float))
+        if not xs:
+            return 0
+        x, y = np.concatenate(xs), np.concatenate(ys)
+        far, rest = far_points(x, y)
+        n = int(far.sum())
+        if not n:
+            return 0
+        self.keep_box, self.far = rest, n
+        self.bounds = [(max(b[0], rest[0]), max(b[1], rest[1]), min(b[2], rest[2]),
+                        min(b[3], rest[3])) for b in self.bounds]
+        import warnings
+
+        from ..errors import DataWarning
+
+        x0, y0, x1, y1 = (min(float(x.min()), rest[0]), min(float(y.min()), rest[1]),
+                          max(float(x.max()), rest[2]), max(float(y.max()), rest[3]))
+        where = ", ".join(f"({a:.2f}, {b:.2f})" for a, b in zip(x[far][:3], y[far][:3]))
+        warnings.warn(DataWarning(
+            f"{self.label()}: {n:,} point(s) lie far from the other {x.size - n:,} ({where}"
+            f"{' ...' if n > 3 else ''}) and are left out of every output: they would stretch "
+            f"the {rest[2] - rest[0]:,.0f} x {rest[3] - rest[1]:,.0f} m of the others to "
+            f"{x1 - x0:,.0f} x {y1 - y0:,.0f} m"), stacklevel=3)
+        return n
 
     @property
     def path(self) -> Path:
@@ -126,6 +186,25 @@ class Catalog:
         x0, y0, x1, y1 = box
         return [f for f, b in zip(self.files, self.bounds)
                 if b[0] <= x1 and b[2] >= x0 and b[1] <= y1 and b[3] >= y0]
+
+
+#: an area of at most this many points is read once at opening for points far from the rest
+FAR_CHECK_POINTS = 5_000_000
+
+
+def far_points(x, y) -> tuple:
+    """``(mask, bounds of the others)`` of points far from the bulk: beyond the 1 and 99 %
+    quantiles of x or y by more than their span (at least 100 m), when they are at most 1 % of
+    the points; else an empty mask and None."""
+    far = np.zeros(x.size, bool)
+    for v in (x, y):
+        lo, hi = np.quantile(v, [0.01, 0.99])
+        pad = max(hi - lo, 100.0)
+        far |= (v < lo - pad) | (v > hi + pad)
+    if not far.any() or far.sum() > 0.01 * x.size:
+        return np.zeros(x.size, bool), None
+    k = ~far
+    return far, (float(x[k].min()), float(y[k].min()), float(x[k].max()), float(y[k].max()))
 
 
 def warn_overridden(labels: list, files: int, crs) -> None:

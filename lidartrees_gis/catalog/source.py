@@ -241,6 +241,8 @@ class TileSource:
                     if kept_bytes > cache.budget // 2:  # too big to keep anyway
                         kept = None
                 m = (c.x >= x0) & (c.x <= x1) & (c.y >= y0) & (c.y <= y1)
+                if self.catalog.keep_box is not None:  # stray points far from the rest
+                    m &= self.catalog.keeps(c.x, c.y)
                 if m.any():
                     yield c.subset(m)  # a copy: what is kept is never handed out
             if hit is None:

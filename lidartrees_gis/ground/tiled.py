@@ -123,7 +123,7 @@ def classify_buffered(f, area: Catalog, params: KrausPfeifer, buffer: float, ref
     k = list(area.files).index(f)
     src = area.read.open(f, filtered=False)
     pts = src.read_all(SubProgress(prog, 0.0, 0.25))
-    use = filtered_points(pts, f)
+    use = filtered_points(pts, f) & area.keeps(pts.x, pts.y)  # stray far points never ground
     box = area.clip(area.bounds[k], buffer)
     nb = _neighbours(area, k, box) if len(area.files) > 1 else None
     n_nb = 0 if nb is None else len(nb)
@@ -257,7 +257,7 @@ def ground_run(input, output, *, dtm_out=None, res="auto", params=None,
               "ground_share": totals["ground"] / max(totals["points"], 1),
               "crs": crs_label(area.crs), "reprojection": repro_report(area),
               "buffer": buffer if len(area.files) > 1 else None,
-              "workers": workers or os.cpu_count()}
+              "far_points": area.far or None, "workers": workers or os.cpu_count()}
     if dtm_out:
         result.update({"dtm": str(dtm_out), "res": dtm_res})
     prog.update(1.0, "done")
