@@ -211,3 +211,31 @@ def test_far_points_in_grid_chm_ground_and_dtm_quality(tmp_path, capsys):
     assert main(["dtm-quality", str(far), str(tmp_path / "dq"), "-g", "-2:0:1", "-w", "1:2:1",
                  "-q"]) == 0  # hung before
     assert "lie far from the other" in capsys.readouterr().err
+
+
+@needs_data
+@pytest.mark.parametrize("marker", [-9999.0, -3.4028234663852886e38])
+def test_a_chm_without_nodata_and_a_marker_border_gives_the_same_trees(tmp_path, capsys, marker):
+    import rasterio
+    from rasterio.transform import Affine
+
+    chm = tmp_path / "chm.tif"
+    assert main(["chm", str(MIXED), str(chm), "-q"]) == 0
+    assert main(["trees", str(chm), str(tmp_path / "a.gpkg"), "-q"]) == 0
+    ref = _value(capsys.readouterr().out, "trees")
+    with rasterio.open(chm) as ds:
+        a, prof, nd = ds.read(1).astype(np.float32), ds.profile, ds.nodata
+    a[(a == nd) | np.isnan(a)] = marker
+    b = np.full((a.shape[0] + 20, a.shape[1] + 20), marker, np.float32)  # a 10-cell border
+    b[10:-10, 10:-10] = a
+    t = prof["transform"]
+    prof.update(width=b.shape[1], height=b.shape[0], nodata=None,
+                transform=Affine(t.a, 0, t.c - 10 * t.a, 0, t.e, t.f - 10 * t.e))
+    bare = tmp_path / "bare.tif"
+    with rasterio.open(bare, "w", **prof) as ds:
+        ds.write(b, 1)
+    assert main(["trees", str(bare), str(tmp_path / "b.gpkg"), "-q"]) == 0
+    c = capsys.readouterr()
+    assert _value(c.out, "trees") == ref
+    hits = [e for e in c.err.splitlines() if "declares no nodata value" in e]
+    assert len(hits) == 1 and f"{marker:g}" in hits[0]
