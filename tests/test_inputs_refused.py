@@ -239,3 +239,26 @@ def test_a_chm_without_nodata_and_a_marker_border_gives_the_same_trees(tmp_path,
     assert _value(c.out, "trees") == ref
     hits = [e for e in c.err.splitlines() if "declares no nodata value" in e]
     assert len(hits) == 1 and f"{marker:g}" in hits[0]
+
+
+@needs_data
+def test_chm_dtm_min_leaves_out_returns_a_million_metres_down(tmp_path, capsys):
+    import laspy
+    import rasterio
+
+    las = laspy.read(str(MIXED))
+    z = np.array(las.z)
+    z[[5, 500, 9000]] = -1e6
+    las.header.scales = [0.01, 0.01, 0.01]
+    las.z = z
+    las.update_header()
+    f = tmp_path / "low.laz"
+    las.write(str(f))
+    for src, out in ((MIXED, "a.tif"), (f, "b.tif")):
+        assert main(["chm", str(src), str(tmp_path / out), "-dtm", "min", "-q"]) == 0
+    outl = [_value(line, "outlier_points") for line in capsys.readouterr().out.split("output:")[1:]]
+    assert int(outl[1]) >= int(outl[0]) + 3  # the three counted among the outliers
+    with rasterio.open(tmp_path / "a.tif") as a, rasterio.open(tmp_path / "b.tif") as b:
+        ha, hb = a.read(1, masked=True), b.read(1, masked=True)
+    assert hb.max() < 40 and abs(hb.max() - ha.max()) < 0.01
+    assert (np.abs(ha - hb) > 0.01).sum() < 0.01 * ha.count()
