@@ -221,6 +221,10 @@ def warn_overridden(labels: list, files: int, crs) -> None:
         "-t_srs instead of -a_srs to transform them)"), stacklevel=3)
 
 
+#: the largest tile side given (m); none (inf) is one tile
+MAX_TILE_SIDE = 1e5
+
+
 @dataclass(frozen=True)
 class TilingOptions:
     """How an area is cut into tiles and where they run.
@@ -270,6 +274,9 @@ class TilingOptions:
                     raise InputError(f"-tile_size: expected metres, auto or none, got {ts!r}") from None
         if ts is not None and not ts > 0:
             raise InputError(f"-tile_size must be > 0 m, got {self.tile_size!r}")
+        if ts is not None and math.isfinite(ts) and ts > MAX_TILE_SIDE:
+            raise InputError(f"-tile_size {ts:g} m is over {MAX_TILE_SIDE:g} m; give none for "
+                             "one tile")
         object.__setattr__(self, "tile_size", None if ts is None else float(ts))
         for k in ("buffer", "workers"):
             v = getattr(self, k)

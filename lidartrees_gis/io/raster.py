@@ -229,3 +229,49 @@ def resample_to(src_array, src_spec: GridSpec, spec: GridSpec) -> np.ndarray:
               src_crs=scrs, dst_transform=spec.transform, dst_crs=dcrs or scrs,
               resampling=Resampling.bilinear, src_nodata=np.nan, dst_nodata=np.nan)
     return dst
+
+
+def check_creation_options(items) -> None:
+    """Check GDAL creation options (``-co KEY=VALUE``, a list or a dict) before a run, by
+    creating a small GeoTIFF with them (and the defaults they add to) in a temporary folder:
+    an option GDAL rejects or ignores (a wrong name, a value it does not know, blocks that are
+    not multiples of 16) is a one-line error naming it."""
+    if not items:
+        return
+    import logging
+    import tempfile
+
+    import rasterio
+    from rasterio.transform import from_origin
+
+    co = dict(DEFAULT_CO)
+    co.update(parse_kv(items) if not isinstance(items, dict) else
+              {str(k).upper(): v for k, v in items.items()})
+    co, _ = split_overviews(co)
+    given = ", ".join(f"{k}={v}" for k, v in (parse_kv(items) if not isinstance(items, dict)
+                                              else items).items())
+    said = []
+
+    class _Catch(logging.Handler):
+        def emit(self, record):
+            said.append(record.getMessage())
+
+    log = logging.getLogger("rasterio._env")
+    handler = _Catch(logging.WARNING)
+    log.addHandler(handler)
+    try:
+        with tempfile.TemporaryDirectory(prefix=".lidartrees-co-") as tmp:
+            with rasterio.open(f"{tmp}/check.tif", "w", driver="GTiff", width=256, height=256,
+                               count=1, dtype="float32", transform=from_origin(0, 256, 1, 1),
+                               nodata=NODATA, **co) as ds:
+                ds.write(np.zeros((1, 256, 256), np.float32))
+    except Exception as exc:  # noqa: BLE001 - GDAL's own reasons, as one line
+        raise InputError(f"-co {given}: GDAL refuses these GeoTIFF creation options "
+                         f"({str(exc).splitlines()[0][:160]})") from None
+    finally:
+        log.removeHandler(handler)
+    bad = [m for m in said if "creation option" in m or "not recognised" in m
+           or "CPLE_NotSupported" in m or "CPLE_IllegalArg" in m]
+    if bad:
+        raise InputError(f"-co {given}: GDAL does not take these GeoTIFF creation options "
+                         f"({bad[0][:160]})")
