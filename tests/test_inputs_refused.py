@@ -262,3 +262,45 @@ def test_chm_dtm_min_leaves_out_returns_a_million_metres_down(tmp_path, capsys):
         ha, hb = a.read(1, masked=True), b.read(1, masked=True)
     assert hb.max() < 40 and abs(hb.max() - ha.max()) < 0.01
     assert (np.abs(ha - hb) > 0.01).sum() < 0.01 * ha.count()
+
+
+@pytest.mark.parametrize("cmd,out,args,words", [
+    ("chm", "c.tif", ["-tile_size", "1e308"], "-tile_size: '1e308' is out of range"),
+    ("chm", "c.tif", ["-tile_size", "inf"], "-tile_size: 'inf' is not a finite number"),
+    ("stem", "s", ["-base", "1e308"], "-base: '1e308' is out of range"),
+    ("ground", "g.las", ["-cell", "1e308"], "-cell: '1e308' is out of range"),
+    ("profile", "p.las", ["-sigma", "1e-320"], "-sigma: '1e-320' is out of range"),
+    ("profile", "p.las", ["-bin", "1e-9"], "-bin: '1e-9' is out of range"),
+    ("chm", "c.tif", ["-tr", "100000"], "-tr: resolution '100000' m is over 1000 m"),
+    ("chm", "c.tif", ["-co", "BLOCKXSIZE=7"], "GDAL refuses these GeoTIFF creation options"),
+    ("chm", "c.tif", ["-co", "COMPRESS=NOPE"], "GDAL does not take these GeoTIFF creation"),
+    ("trees", "t.gpkg", ["-smooth", "erode:cross:999"], "element size must be odd, >= 1 and <= 51"),
+])
+def test_extreme_options_are_one_line_errors_before_the_run(tmp_path, capsys, cmd, out, args,
+                                                            words):
+    """Each was a traceback (OverflowError, ZeroDivisionError, RasterBlockError), 4 GB of
+    memory (-tr 100000, -bin 1e-9), minutes of work (-smooth erode:cross:999) or accepted
+    (-tile_size inf); now one line, exit 1, nothing written."""
+    f = _cloud(tmp_path / "in.las")
+    assert main([cmd, str(f), str(tmp_path / out), *args, "-q"]) == 1
+    err = _err(capsys)
+    assert len(err) == 1 and words in err[0] and "Traceback" not in err[0], err
+    assert [p.name for p in tmp_path.iterdir()] == ["in.las"]
+
+
+def test_good_creation_options_and_numbers_still_run(tmp_path, capsys):
+    import rasterio
+
+    f = _cloud(tmp_path / "in.las")
+    assert main(["chm", str(f), str(tmp_path / "c.tif"), "-co", "COMPRESS=LZW", "-co",
+                 "BLOCKXSIZE=32", "-co", "BLOCKYSIZE=32", "-tile_size", "none", "-tr", "1",
+                 "-q"]) == 0
+    with rasterio.open(tmp_path / "c.tif") as ds:
+        assert ds.profile["compress"] == "lzw" and ds.block_shapes[0] == (32, 32)
+
+
+def test_a_grid_that_cannot_fit_in_memory_is_refused_before_allocating():
+    from lidartrees_gis.grid import GridAccumulator, GridSpec
+
+    with pytest.raises(Exception, match="more than fits in memory"):
+        GridAccumulator(GridSpec(0.0, 1e6, 0.01, 100_000, 100_000), ("max", "min"))
