@@ -33,7 +33,7 @@ import numpy as np
 
 from ..catalog.catalog import TilingOptions, far_points, make_tiles  # noqa: F401
 from ..catalog.raster import RasterArea
-from ..catalog.source import TileSource
+from ..catalog.source import TileSource, drop_far_points
 from ..errors import InputError
 from ..grid import auto_resolution, check_sparse
 from .chm import chm_resolution, crown_scale
@@ -282,6 +282,8 @@ def plan_area(area, surface: SurfaceOptions, tiling: TilingOptions, *, runner, p
         return runner.map(fn, items, args, ordered=True, label="window",
                           progress=SubProgress(prog, 0.3, 1.0))
 
+    if not isinstance(area, RasterArea):
+        drop_far_points(area)  # before anything is measured: they change nothing
     check_degenerate(area)
     res, density, windows = _resolution(area, surface, tiling, rule, runner,
                                         SubProgress(prog, 0.0, 0.3))

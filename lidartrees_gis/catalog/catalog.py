@@ -37,6 +37,7 @@ class Catalog:
     repros: list = field(default_factory=list)  # each file's -t_srs reprojection (or None)
     keep_box: tuple | None = None  # points outside it are stray and left out (drop_far_points)
     far: int = 0  # the stray points left out
+    far_checked: bool = False  # whether the points were looked at for stray ones
 
     @classmethod
     def open(cls, inputs, read: ReadOptions | None = None) -> "Catalog":
@@ -80,9 +81,7 @@ class Catalog:
                         "relabel them and misplace the data)")
         if overridden:
             warn_overridden(overridden, len(files), crs)
-        cat = cls(files, bounds, counts, crs, read, skipped, repro, repros)
-        cat.drop_far_points()
-        return cat
+        return cls(files, bounds, counts, crs, read, skipped, repro, repros)
 
     def header_bounds(self):
         """The area's extent (for :func:`lidartrees_gis.grid.resolve_resolution`)."""
@@ -101,44 +100,6 @@ class Catalog:
         x0, y0, x1, y1 = self.keep_box
         return (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
 
-    def drop_far_points(self) -> int:
-        """Find the few points far from all the others (:func:`far_points`; a typo in a
-        coordinate, a return from a bird or an aircraft's other strip) and leave them out of
-        everything: the area's extent, its tiles and every file's points become those of the
-        others, so they change neither the cell size nor the tiles nor the trees. One warning
-        names them; their count is in :attr:`far` (and each command's summary). Looked for
-        when the area holds at most :data:`FAR_CHECK_POINTS` points (one read of them all)."""
-        if not 10 <= self.count <= FAR_CHECK_POINTS:
-            return 0
-        from .source import TileSource
-
-        xs, ys = [], []
-        for c in TileSource(self, self.extent).chunks():
-            xs.append(np.asarray(c.x, float))
-            ys.append(np.asarray(c.y, float))
-        if not xs:
-            return 0
-        x, y = np.concatenate(xs), np.concatenate(ys)
-        far, rest = far_points(x, y)
-        n = int(far.sum())
-        if not n:
-            return 0
-        self.keep_box, self.far = rest, n
-        self.bounds = [(max(b[0], rest[0]), max(b[1], rest[1]), min(b[2], rest[2]),
-                        min(b[3], rest[3])) for b in self.bounds]
-        import warnings
-
-        from ..errors import DataWarning
-
-        x0, y0, x1, y1 = (min(float(x.min()), rest[0]), min(float(y.min()), rest[1]),
-                          max(float(x.max()), rest[2]), max(float(y.max()), rest[3]))
-        where = ", ".join(f"({a:.2f}, {b:.2f})" for a, b in zip(x[far][:3], y[far][:3]))
-        warnings.warn(DataWarning(
-            f"{self.label()}: {n:,} point(s) lie far from the other {x.size - n:,} ({where}"
-            f"{' ...' if n > 3 else ''}) and are left out of every output: they would stretch "
-            f"the {rest[2] - rest[0]:,.0f} x {rest[3] - rest[1]:,.0f} m of the others to "
-            f"{x1 - x0:,.0f} x {y1 - y0:,.0f} m"), stacklevel=3)
-        return n
 
     @property
     def path(self) -> Path:

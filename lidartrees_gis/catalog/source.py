@@ -10,7 +10,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..io.points import PointChunk
-from .catalog import Catalog
+from .catalog import FAR_CHECK_POINTS, Catalog, far_points
 
 
 #: decompressed points kept per process (bytes), so that the neighbouring tiles whose buffers
@@ -259,3 +259,42 @@ class TileSource:
 
     def scan(self, progress=None):
         raise InputError("a tile is scanned through its catalog")
+
+
+def drop_far_points(cat: Catalog) -> int:
+    """Find the few points far from all the others (:func:`far_points`; a typo in a
+    coordinate, a return from a bird or an aircraft's other strip) and leave them out of
+    everything: the area's extent, its tiles and every file's points become those of the
+    others, so they change neither the cell size nor the tiles nor the trees. One warning
+    names them; their count is in ``cat.far`` (and each command's summary). Looked for
+    when the area holds at most :data:`FAR_CHECK_POINTS` points (one read of them all)."""
+    if cat.far_checked or not 10 <= cat.count <= FAR_CHECK_POINTS:
+        return cat.far
+    cat.far_checked = True
+    xs, ys = [], []
+    for c in TileSource(cat, cat.extent).chunks():
+        xs.append(np.asarray(c.x, float))
+        ys.append(np.asarray(c.y, float))
+    if not xs:
+        return 0
+    x, y = np.concatenate(xs), np.concatenate(ys)
+    far, rest = far_points(x, y)
+    n = int(far.sum())
+    if not n:
+        return 0
+    cat.keep_box, cat.far = rest, n
+    cat.bounds = [(max(b[0], rest[0]), max(b[1], rest[1]), min(b[2], rest[2]),
+                   min(b[3], rest[3])) for b in cat.bounds]
+    import warnings
+
+    from ..errors import DataWarning
+
+    x0, y0, x1, y1 = (min(float(x.min()), rest[0]), min(float(y.min()), rest[1]),
+                      max(float(x.max()), rest[2]), max(float(y.max()), rest[3]))
+    where = ", ".join(f"({a:.2f}, {b:.2f})" for a, b in zip(x[far][:3], y[far][:3]))
+    warnings.warn(DataWarning(
+        f"{cat.label()}: {n:,} point(s) lie far from the other {x.size - n:,} ({where}"
+        f"{' ...' if n > 3 else ''}) and are left out of every output: they would stretch "
+        f"the {rest[2] - rest[0]:,.0f} x {rest[3] - rest[1]:,.0f} m of the others to "
+        f"{x1 - x0:,.0f} x {y1 - y0:,.0f} m"), stacklevel=3)
+    return n

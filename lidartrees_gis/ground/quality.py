@@ -11,6 +11,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..catalog.catalog import Catalog
+from ..catalog.source import drop_far_points
 from ..grid import GridSpec, resolve_resolution
 from ..io.options import ReadOptions
 from ..io.provenance import raster_tags, repro_report
@@ -131,7 +132,8 @@ def dtm_quality_file(input, outdir, *, g="-4:1:0.5", w="1:4:0.5", res="auto", pa
     read = read or ReadOptions()
     stack = contextlib.ExitStack()
     with stack:
-        area = Catalog.open(input, read)  # a file is a catalog of one: stray points found
+        area = Catalog.open(input, read)  # a file is a catalog of one
+        drop_far_points(area)  # stray points far from the rest: left out (a hang before)
         if area is not None and len(area.files) > 1:
             # several files: each (g, w) over each file with a buffer, DTMs kept on disk
             from .quality_area import footprint_and_reference, sweep_area

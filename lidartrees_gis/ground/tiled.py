@@ -22,6 +22,7 @@ from .._version import __version__
 from ..catalog.catalog import Catalog, TilingOptions
 from ..catalog.mosaic import MosaicWriter
 from ..catalog.runner import FailedTiles, TileRunner, default_workers
+from ..catalog.source import drop_far_points
 from ..crs import crs_label
 from ..errors import InputError
 from ..grid import GridSpec, auto_resolution, check_resolution
@@ -197,6 +198,7 @@ def ground_run(input, output, *, dtm_out=None, res="auto", params=None,
     prog = as_progress(progress)
     check_outputs([(dtm_out, "-dtm_out")], (), out.overwrite)
     area = Catalog.open(input, read)
+    drop_far_points(area)  # stray points far from the rest: left out (a hang before)
     finals = output_paths(area, output)
     folder = Path(output) if len(finals) > 1 else None
     if folder is not None and not folder.exists():  # made once the checks pass
