@@ -271,10 +271,13 @@ def drop_far_points(cat: Catalog) -> int:
     if cat.far_checked or not 10 <= cat.count <= FAR_CHECK_POINTS:
         return cat.far
     cat.far_checked = True
+    from ..io.las import one_thread
+
     xs, ys = [], []
-    for c in TileSource(cat, cat.extent).chunks():
-        xs.append(np.asarray(c.x, float))
-        ys.append(np.asarray(c.y, float))
+    with one_thread():  # this process may fork its workers next
+        for c in TileSource(cat, cat.extent).chunks():
+            xs.append(np.asarray(c.x, float))
+            ys.append(np.asarray(c.y, float))
     if not xs:
         return 0
     x, y = np.concatenate(xs), np.concatenate(ys)

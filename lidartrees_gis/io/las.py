@@ -143,10 +143,32 @@ def _check_las_header(path, h, count):
                         f"{size:,}-byte LAZ file; the header is wrong")
 
 
+#: set by :func:`one_thread`: decompress on the calling thread only
+_ONE_THREAD = []
+
+
+class one_thread:
+    """Within it, LAZ files are decompressed on the calling thread (no thread pool started):
+    a process that may fork its Dask workers afterwards reads this way, since a forked child
+    inherits a thread pool's locks but not its threads and hangs on them."""
+
+    def __enter__(self):
+        _ONE_THREAD.append(True)
+        return self
+
+    def __exit__(self, *exc):
+        _ONE_THREAD.pop()
+        return False
+
+
 def laz_backend():
     """LAZ decompressor for this process: laspy's default (lazrs on all cores) in a single
     process, one thread inside a Dask worker, whose siblings already use the other cores (a
-    parallel decompressor per worker only oversubscribes them)."""
+    parallel decompressor per worker only oversubscribes them), and within :class:`one_thread`."""
+    if _ONE_THREAD:
+        import laspy
+
+        return laspy.LazBackend.Lazrs if laspy.LazBackend.Lazrs.is_available() else None
     if "distributed" in sys.modules:
         from distributed import get_worker
 
