@@ -284,7 +284,8 @@ def plan_area(area, surface: SurfaceOptions, tiling: TilingOptions, *, runner, p
 
     if not isinstance(area, RasterArea):
         drop_far_points(area)  # before anything is measured: they change nothing
-    check_degenerate(area)
+    if rule != "density":  # a grid of one point is its one cell; no CHM or tree is made of it
+        check_degenerate(area)
     res, density, windows = _resolution(area, surface, tiling, rule, runner,
                                         SubProgress(prog, 0.0, 0.3))
     x0, y0, x1, y1 = area.extent

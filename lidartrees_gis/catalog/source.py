@@ -191,8 +191,10 @@ class TileSource:
     repro = None
     skipped = 0
 
-    def __init__(self, catalog: Catalog, box, *, chunk_size: int = 1_000_000):
+    def __init__(self, catalog: Catalog, box, *, chunk_size: int = 1_000_000,
+                 cache: bool = True):
         self.catalog = catalog
+        self.cache = cache  # False: read the files without the read caches
         self.box = tuple(float(v) for v in box)
         self.files = catalog.files_for(self.box)
         self.path = Path(f"tile {self.box[0]:.0f},{self.box[1]:.0f}") if len(catalog.files) > 1 \
@@ -214,6 +216,8 @@ class TileSource:
         x0, y0, x1, y1 = self.box
         self.dropped = {}
         cache, read, shared = READ_CACHE, self.catalog.read, shared_cache()
+        if not self.cache:
+            cache, shared = ReadCache(0), None
         prog, nf = as_progress(progress), max(len(self.files), 1)
         for k, f in enumerate(self.files):
             try:
@@ -273,9 +277,13 @@ def drop_far_points(cat: Catalog) -> int:
     cat.far_checked = True
     from ..io.las import one_thread
 
+    # this process may fork its workers next: LAZ is decoded on one thread (a forked child
+    # hangs on a decoder's thread pool), and not kept (the sequential decoder reads files the
+    # parallel one refuses, whose refusal must not depend on this look)
+    laz = any(str(f).lower().endswith(".laz") for f in cat.files)
     xs, ys = [], []
-    with one_thread():  # this process may fork its workers next
-        for c in TileSource(cat, cat.extent).chunks():
+    with one_thread():
+        for c in TileSource(cat, cat.extent, cache=not laz).chunks():
             xs.append(np.asarray(c.x, float))
             ys.append(np.asarray(c.y, float))
     if not xs:

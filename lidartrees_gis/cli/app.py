@@ -136,10 +136,13 @@ def _join_dash_values(argv, ap):
     return out
 
 
-#: the sizes a number option may take, by unit: (largest, smallest other than 0). Metres: no
-#: cell, tile, height or distance is over 100 km or under 0.1 mm; areas likewise; a count or
-#: factor is at most a billion
-NUMBER_BOUNDS = {"m": (1e5, 1e-4), "m²": (1e10, 1e-8), "": (1e9, 1e-9)}
+#: the sizes a number option may take, by unit: (largest, smallest other than 0), the gross
+#: limits past which numbers overflow or grids and kernels exhaust memory (each option's own
+#: check then says its useful range). Metres: no size is over 10,000 km or under a micrometre;
+#: a count or factor is at most a billion
+NUMBER_BOUNDS = {"m": (1e7, 1e-6), "m²": (1e12, 1e-10), "": (1e9, 1e-9)}
+#: options with limits of their own: -step's own check says how many passes a tiny step makes
+NUMBER_LIMITS = {"step": (1e5, 1e-12)}
 #: text options that take a number in metres or a word (auto, none)
 NUMBER_OR_WORD = {"tile_size": "m", "base": "m"}
 
@@ -150,8 +153,9 @@ def check_numbers(cmd, kw) -> None:
     from ..errors import InputError
 
     for p in cmd.params:
+        # (-tr is checked by grid.check_resolution, for the API too)
         unit = NUMBER_OR_WORD.get(p.name) if p.kind == "str" else (
-            p.unit if p.kind in ("float", "int", "res") else None)
+            p.unit if p.kind in ("float", "int") else None)
         v = kw.get(p.name)
         if unit is None or v is None or isinstance(v, bool) or str(v).strip() == "":
             continue
@@ -168,7 +172,8 @@ def check_numbers(cmd, kw) -> None:
         what = f"{p.flag}: {text!r}"
         if not math.isfinite(f):
             hint = "; give none for one tile" if p.name == "tile_size" else ""
-            raise InputError(f"{what} is not a finite number{hint}")
+            raise InputError(f"{p.flag}: expected a finite number, got {text!r}{hint}")
+        hi, lo = NUMBER_LIMITS.get(p.name, (hi, lo))
         if abs(f) > hi or 0 < abs(f) < lo:
             raise InputError(f"{what} is out of range: give a size between {lo:g} and {hi:g}"
                              f"{' ' + unit if unit else ''} (or 0 where the option allows it)")
