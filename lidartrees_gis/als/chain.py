@@ -138,7 +138,6 @@ def check_points(area, tally: Tally, read: ReadOptions | None = None) -> None:
                      "or -keep_class")
 
 
-#: a trees run that finds no tree where its area holds canopy above -min_height is an error
 def check_trees(area, plan: AreaPlan, trees: int, params: TreeParams) -> None:
     """Refuse 0 trees from an area that holds canopy above ``-min_height`` (a detection
     that found nothing there has failed: its GeoPackage would be a wrong, empty result)."""
