@@ -10,8 +10,8 @@ are measured once per campaign:
   with two WKT records) and a WKT EPSG:4326 record on metre coordinates;
 * ``nodata``: the stand's CHM GeoTIFF with no nodata value and a border of -9999, -32768 or
   -3.4e38;
-* ``degenerate``: one point, every point identical, every point noise (class 7), a
-  ``-keep_class`` of an absent class;
+* ``degenerate``: one point or every point identical (``chm``, ``trees``), every point noise
+  (class 7) or a ``-keep_class`` of an absent class (``grid`` too);
 * ``number``: a number option of a command at an extreme (1e308, inf, nan, 1e-320, ...);
 * ``co``: a GDAL creation option GDAL rejects.
 
@@ -193,7 +193,8 @@ def _degenerate_case(rng, ref, work, i):
     else:
         _write(f, x, y, z, cls, wkts=(31983,))
         extra = ["-keep_class", "5"]
-    cmd = ["chm", "trees", "grid"][int(rng.integers(0, 3))]
+    # a grid of one point (or of points at one place) is its one cell: chm and trees refuse it
+    cmd = ["chm", "trees", "grid"][int(rng.integers(0, 3 if kind >= 2 else 2))]
     ext = ".gpkg" if cmd == "trees" else ".tif"
     tr = ["-tr", "1"] if rng.random() < 0.7 else []
     return [cmd, str(f), str(work / f"o{i}{ext}"), *tr, *extra], {"refuse": True}
