@@ -33,6 +33,14 @@ def main(argv=None) -> int:
         print(f"seed {seed}: {rep['cases']} cases, {rep['failed']} failed, "
               f"{rep['wall_s']} s", file=sys.stderr)
         seed += 1
+        write(batches, t0, a.out)  # after every batch: a killed campaign keeps what it ran
+    total = write(batches, t0, a.out)
+    print(json.dumps({k: v for k, v in total.items() if k != "failures"}, indent=1))
+    return 0
+
+
+def write(batches: list, t0: float, path) -> dict:
+    """The campaign's totals over its ``batches``, written to ``path``."""
     total = {"cases": sum(b["cases"] for b in batches), "seeds": [b["seed"] for b in batches],
              "failed": sum(b["failed"] for b in batches),
              "tracebacks": sum(b["by_reason"].get("traceback", 0) for b in batches),
@@ -49,11 +57,10 @@ def main(argv=None) -> int:
              "max_rss_gb": max(b["max_rss_gb"] for b in batches),
              "wall_s": round(time.perf_counter() - t0, 1),
              "failures": [f for b in batches for f in b["failures"]][:50]}
-    out = Path(a.out)
+    out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps({"fuzz_inputs": total}, indent=1, default=str))
-    print(json.dumps({k: v for k, v in total.items() if k != "failures"}, indent=1))
-    return 0
+    return total
 
 
 if __name__ == "__main__":
