@@ -198,3 +198,57 @@ def missing_crs_hint(x=None, y=None) -> str:
                 "they do not say: give the delivery's with -a_srs, as an EPSG code (SIRGAS "
                 "2000 / UTM zones 18S-25S are EPSG:31978-31985) or as 'SAD69 23K'")
     return "give the delivery's CRS with -a_srs (an EPSG code, WKT or 'SAD69 23K')"
+
+
+#: how far (degrees) the points may lie outside a projected CRS's area of use before their
+#: coordinates are taken for degrees mislabelled
+AREA_OF_USE_MARGIN = 1.0
+#: a projected CRS's points spanning at most this (its units) and within +-180 / +-90 may be
+#: degrees (a degree is about 111 km: no acquisition spans more); wider local coordinates are not
+DEGREE_SPAN = 1.0
+#: points within this of (0, 0) are taken for a local frame (a scanner at the origin), not
+#: degrees, whatever CRS they are labelled with
+LOCAL_ORIGIN = 2.0
+
+
+def check_coordinates(crs, bounds, where, *, given: bool = False) -> None:
+    """Refuse coordinates that cannot be in ``crs``: a geographic CRS (degrees) with x beyond
+    +-180 or y beyond +-90 (metres labelled e.g. EPSG:4326), or a projected CRS whose points
+    all lie within +-180, +-90 and :data:`DEGREE_SPAN`, away from the origin (:data:`LOCAL_ORIGIN`), and, read in it, fall outside its area of use (longitude and
+    latitude in degrees labelled e.g. UTM). ``bounds`` (xmin, ymin, xmax, ymax); ``where``
+    names the file; ``given``: the CRS came from -a_srs."""
+    if crs is None or bounds is None:
+        return
+    x0, y0, x1, y1 = (float(v) for v in bounds)
+    if not all(np.isfinite([x0, y0, x1, y1])):
+        return
+    label = crs_label(crs)
+    source = "-a_srs" if given else "the file"
+    extent = f"x {x0:,.2f}..{x1:,.2f}, y {y0:,.2f}..{y1:,.2f}"
+    if crs.is_geographic:
+        if max(abs(x0), abs(x1)) > 180.0 or max(abs(y0), abs(y1)) > 90.0:
+            raise CRSError(
+                f"{where}: coordinates cannot be in the declared CRS: {source} says "
+                f"{label} (degrees) but the points span {extent}, beyond longitude +-180 / "
+                f"latitude +-90 (metres?); give the delivery's projected CRS with -a_srs")
+        return
+    if not crs.is_projected or max(abs(x0), abs(x1)) > 180.0 or max(abs(y0), abs(y1)) > 90.0 \
+            or max(x1 - x0, y1 - y0) > DEGREE_SPAN or max(abs(x0), abs(y0)) < LOCAL_ORIGIN:
+        return
+    aou = crs.area_of_use
+    if aou is None or aou.west > aou.east:  # none stated, or across the antimeridian
+        return
+    try:
+        to_geo = pyproj.Transformer.from_crs(crs, crs.geodetic_crs, always_xy=True)
+        lon, lat = to_geo.transform((x0 + x1) / 2, (y0 + y1) / 2, errcheck=True)
+    except Exception:  # noqa: BLE001 - no inverse there: the point is not in the CRS's domain
+        lon = lat = float("nan")
+    m = AREA_OF_USE_MARGIN
+    if (np.isfinite(lon) and np.isfinite(lat) and aou.west - m <= lon <= aou.east + m
+            and aou.south - m <= lat <= aou.north + m):
+        return
+    raise CRSError(
+        f"{where}: coordinates cannot be in the declared CRS: {source} says {label} "
+        f"(metres) but the points span {extent}, which read as metres lie outside its area of use "
+        f"(they look like longitude/latitude in degrees); give -a_srs EPSG:4326 or EPSG:4674 "
+        f"and -t_srs {label.split()[0]}")

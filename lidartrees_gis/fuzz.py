@@ -295,7 +295,12 @@ def _worker(conn):
 
             err.write(traceback.format_exc())
             code = -999
-        conn.send({"code": code, "seconds": time.perf_counter() - t, "stderr": err.getvalue()[-4000:]})
+        import resource
+
+        conn.send({"code": code, "seconds": time.perf_counter() - t,
+                   "stderr": err.getvalue()[-4000:], "stdout": out.getvalue()[-4000:],
+                   # the worker's peak so far (KB on Linux): a case that grew it shows here
+                   "maxrss": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024})
 
 
 def run_cases(cases, time_limit=TIME_LIMIT, progress=None):

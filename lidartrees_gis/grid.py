@@ -134,7 +134,33 @@ def check_resolution(res) -> float:
         raise InputError(f"-tr: resolution must be > 0, got {res!r}")
     if r < 1e-4:
         raise InputError(f"-tr: resolution {res!r} m is below 0.1 mm; cells are in metres")
+    if r > MAX_RES:
+        raise InputError(f"-tr: resolution {res!r} m is over {MAX_RES:g} m; cells are in metres")
     return r
+
+
+#: the largest cell size (m): a coarser grid says nothing of trees or terrain
+MAX_RES = 1000.0
+#: the most bytes the arrays of one grid accumulator may take (and at most half the memory
+#: free when it is made)
+MAX_GRID_BYTES = 2 * 2 ** 30
+
+
+def check_grid_memory(cells: int, bytes_per_cell: int, spec=None) -> None:
+    """Refuse, before allocating, a grid whose arrays would not fit in memory (a cell size
+    far too fine for the extent, or an extent far too large for the cell)."""
+    import os
+
+    need = int(cells) * int(bytes_per_cell)
+    try:
+        free = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        free = 2 * MAX_GRID_BYTES
+    if need > min(MAX_GRID_BYTES, free // 2):
+        shape = f"{spec.width:,} x {spec.height:,} cells of {spec.res:g} m" if spec is not None \
+            else f"{int(cells):,} cells"
+        raise InputError(f"a grid of {shape} needs {need / 2 ** 30:.1f} GB, more than fits in "
+                         f"memory; give a coarser -tr, or process the area in tiles (-tile_size)")
 
 
 #: more cells per point than this (on grids over a million cells) means points far apart
@@ -184,6 +210,7 @@ class GridAccumulator:
         n = spec.width * spec.height
         # counts are kept when asked for (count, mean); max/min alone mark empty cells with NaN
         need_count = "count" in self.stats or "mean" in self.stats
+        check_grid_memory(n, 8 * (len(self.stats) + need_count), spec)
         self.count = np.zeros(n if need_count else 0, dtype=np.int64)
         # -inf / +inf mark empty cells while accumulating; results turn them into NaN
         self._max = np.full(n, -np.inf) if "max" in self.stats else None
@@ -343,6 +370,7 @@ class LowestPoints:
     def __init__(self, spec: GridSpec):
         self.spec = spec
         n = spec.width * spec.height
+        check_grid_memory(n, 32, spec)
         self.z = np.full(n, np.inf)
         self.x = np.zeros(n)
         self.y = np.zeros(n)

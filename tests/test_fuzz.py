@@ -16,3 +16,17 @@ def test_fuzz_2000_cases(tmp_path):
     # the run exercised both outcomes: clean refusals and successful runs
     codes = [r["code"] for r in results]
     assert codes.count(1) > 500 and codes.count(0) > 100
+
+
+def test_fuzz_inputs_to_refuse_or_warn(tmp_path):
+    """Issue 42: a seeded run of every family of inputs the project must refuse or warn about
+    (far points, conflicting CRS records, nodata borders, degenerate clouds, extreme numbers,
+    bad creation options): no traceback, hang or memory blow-up, no exit 0 on a degenerate
+    input, no result more than 5 % off the unmutated one without a warning."""
+    from lidartrees_gis.fuzz_inputs import FAMILIES, campaign
+
+    rep = campaign(36, seed=0, workdir=tmp_path)
+    assert rep["cases"] == 36 and set(rep["families"]) == set(FAMILIES)
+    assert all(v == 6 for v in rep["families"].values())
+    assert rep["failed"] == 0, rep["failures"][:5]
+    assert rep["refused"] >= 10 and rep["ran"] >= 6  # both outcomes exercised

@@ -31,9 +31,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..catalog.catalog import TilingOptions, make_tiles
+from ..catalog.catalog import TilingOptions, far_points, make_tiles  # noqa: F401
 from ..catalog.raster import RasterArea
-from ..catalog.source import TileSource
+from ..catalog.source import TileSource, drop_far_points
 from ..errors import InputError
 from ..grid import auto_resolution, check_sparse
 from .chm import chm_resolution, crown_scale
@@ -95,60 +95,6 @@ def measurement_windows(extent, count: int, window: float = MEASURE_WINDOW) -> l
             if box not in boxes:
                 boxes.append(box)
     return boxes
-
-
-#: an area with fewer points per m² of its bounding box than this (and at most
-#: FAR_CHECK_POINTS points) is read once for points far from the rest
-FAR_CHECK_DENSITY = 0.02
-FAR_CHECK_POINTS = 5_000_000
-
-
-def far_points(x, y) -> tuple:
-    """``(mask, bounds of the others)`` of points far from the bulk: beyond the 0.1 and 99.9 %
-    quantiles of x or y by more than their span (at least 100 m), when they are at most 1 % of
-    the points; else an empty mask."""
-    far = np.zeros(x.size, bool)
-    for v in (x, y):
-        lo, hi = np.quantile(v, [0.001, 0.999])
-        pad = max(hi - lo, 100.0)
-        far |= (v < lo - pad) | (v > hi + pad)
-    if not far.any() or far.sum() > 0.01 * x.size:
-        return np.zeros(x.size, bool), None
-    k = ~far
-    return far, (float(x[k].min()), float(y[k].min()), float(x[k].max()), float(y[k].max()))
-
-
-def warn_far_points(area, res: float) -> int:
-    """A warning naming the points far from the rest and the extent they stretch the grids to
-    (one point 100 km away makes a 100 km grid); the count (0 when none or not looked at)."""
-    x0, y0, x1, y1 = area.extent
-    box = max((x1 - x0) * (y1 - y0), 1e-9)
-    if not 10 <= area.count <= FAR_CHECK_POINTS or area.count / box >= FAR_CHECK_DENSITY:
-        return 0
-    xs, ys = [], []
-    for c in TileSource(area, area.extent).chunks():
-        xs.append(np.asarray(c.x, float))
-        ys.append(np.asarray(c.y, float))
-    if not xs:
-        return 0
-    x, y = np.concatenate(xs), np.concatenate(ys)
-    far, rest = far_points(x, y)
-    n = int(far.sum())
-    if n:
-        import warnings
-
-        from ..errors import DataWarning
-
-        ra = max((rest[2] - rest[0]) * (rest[3] - rest[1]), res * res)
-        cells = (x1 - x0) / res * ((y1 - y0) / res)
-        where = ", ".join(f"({a:.2f}, {b:.2f})" for a, b in zip(x[far][:3], y[far][:3]))
-        warnings.warn(DataWarning(
-            f"{area.label()}: {n:,} point(s) lie far from the other {x.size - n:,} ({where}"
-            f"{' ...' if n > 3 else ''}; the others cover x {rest[0]:.2f}..{rest[2]:.2f}, y "
-            f"{rest[1]:.2f}..{rest[3]:.2f}): the outputs span the whole {x1 - x0:,.0f} x "
-            f"{y1 - y0:,.0f} m extent, {box / ra:,.0f} times the others' area ({cells:.3g} cells "
-            f"of {res:g} m); drop those points (or their file) if they are errors"), stacklevel=3)
-    return n
 
 
 def window_density(box, catalog, progress=None) -> float:
@@ -223,10 +169,22 @@ class AreaPlan:
     tiles: tuple
     buffer: float
     tile_size: float  # m (inf: one tile)
+    canopy_windows: int = 0  # windows with canopy above -min_height (trees only)
 
     @property
     def one_tile(self) -> bool:
         return len(self.tiles) == 1
+
+
+def check_degenerate(area) -> None:
+    """Refuse a cloud of points that cover no area at all (one point, or every point at the
+    same x and y): no surface or tree can be made of it."""
+    if isinstance(area, RasterArea):
+        return
+    x0, y0, x1, y1 = area.extent
+    if x1 - x0 <= 0 and y1 - y0 <= 0:
+        raise InputError(f"{area.label()}: degenerate point cloud: its {area.count:,} point(s) "
+                         f"lie at one location (x {x0:.2f}, y {y0:.2f}); nothing to grid")
 
 
 def one_tile_area(area) -> bool:
@@ -324,13 +282,16 @@ def plan_area(area, surface: SurfaceOptions, tiling: TilingOptions, *, runner, p
         return runner.map(fn, items, args, ordered=True, label="window",
                           progress=SubProgress(prog, 0.3, 1.0))
 
+    if not isinstance(area, RasterArea):
+        drop_far_points(area)  # before anything is measured: they change nothing
+    if rule != "density":  # a grid of one point is its one cell; no CHM or tree is made of it
+        check_degenerate(area)
     res, density, windows = _resolution(area, surface, tiling, rule, runner,
                                         SubProgress(prog, 0.0, 0.3))
     x0, y0, x1, y1 = area.extent
     if not isinstance(area, RasterArea):
         cells = (x1 - x0) / res * ((y1 - y0) / res)
         check_sparse(cells, area.count, area.extent, res, area.path)
-        warn_far_points(area, res)
     ts = _tile_side(area, tiling, density, res)
     measures, kept = [], None
     if rule != "density":
@@ -351,8 +312,9 @@ def plan_area(area, surface: SurfaceOptions, tiling: TilingOptions, *, runner, p
     if not tiling.any_size:
         check_tile_size(tiling.tile_size, ts, res, buf)
     tiles = tuple(make_tiles(area.extent, ts, buf))
+    canopy = sum(1 for m in measures if np.isfinite(m["p95"]))
     plan = AreaPlan(res, density, stats, cs, source, hd, max(tops) if tops else None,
-                    len(windows), tiles, buf, ts)
+                    len(windows), tiles, buf, ts, canopy)
     return plan, kept
 
 

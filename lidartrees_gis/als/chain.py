@@ -125,6 +125,30 @@ def check_failed(runner: TileRunner, result: dict) -> dict:
     return result
 
 
+def check_points(area, tally: Tally, read: ReadOptions | None = None) -> None:
+    """Refuse a run whose tiles read no point (every point dropped by the class filter, or
+    none in the area): its outputs would be all nodata, or hold no tree. Called before the
+    outputs are renamed into place, so none is written."""
+    if not isinstance(area, Catalog) or tally.points:
+        return
+    dropped = ", ".join(f"{v:,} of class {c}" for c, v in sorted(tally.dropped.items()))
+    filt = ", ".join(f"-{k} {v}" for k, v in (read.describe() if read else {}).items() if v)
+    why = "the class filter dropped every point" + "".join(
+        f" ({t})" for t in ("; ".join(x for x in (dropped, filt) if x),) if t)
+    raise InputError(f"{area.label()}: no points left to process: {why}; change -drop_class "
+                     "or -keep_class")
+
+
+def check_trees(area, plan: AreaPlan, trees: int, params: TreeParams) -> None:
+    """Refuse 0 trees from an area that holds canopy above ``-min_height`` (a detection
+    that found nothing there has failed: its GeoPackage would be a wrong, empty result)."""
+    if trees == 0 and plan.canopy_windows:
+        raise InputError(f"{area.label()}: no tree found, though the canopy rises above "
+                         f"-min_height {params.min_height:g} m (dominant height "
+                         f"{plan.dominant_height:.1f} m); check -min_height, -smooth and the "
+                         "crown-size options")
+
+
 def _warn(message: str) -> None:
     import warnings
 
@@ -156,6 +180,7 @@ def _result(area, plan: AreaPlan, summary: Tally) -> dict:
             "points_read": summary.points or None, "tiles": len(plan.tiles),
             "buffer": round(plan.buffer, 2) if len(plan.tiles) > 1 else None, "res": plan.res,
             **filter_report(summary.dropped), "outlier_points": summary.outliers or None,
+            "far_points": getattr(area, "far", 0) or None,
             "skipped": getattr(area, "skipped", 0) or None, "reprojection": repro_report(area)}
 
 
@@ -262,8 +287,11 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
                         sinks[k].add(r)
                 if sinks.get("chm") is not None:
                     sinks["chm"].write(r["chm"], r["chm_left"], r["chm_top"])
+            check_points(area, summary, read)
             smooth = auto_smoothing(plan.crown_scale, plan.res)[0] if p.smooth == "auto" else p.smooth
             row = summary.row(p, plan, smooth)
+            if not runner.failed:
+                check_trees(area, plan, int(row["trees"]), p)
             srows = None
             if tally is not None:
                 srows = tally.rows(plan.res, p.spacing)

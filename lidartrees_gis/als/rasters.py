@@ -13,7 +13,7 @@ from ..io.output import OutputOptions, atomic_output, check_outputs, claim_outpu
 from ..io.provenance import raster_tags
 from ..progress import SubProgress, as_progress
 from .area import MIN_BUFFER, plan_area
-from .chain import _result, check_failed, kept_tiles, run_tiles, runner_for
+from .chain import _result, check_failed, check_points, kept_tiles, run_tiles, runner_for
 from .sinks import Tally, sidecar
 from .surfaces import SurfaceOptions
 from .tile import tile_grid, tile_surfaces
@@ -80,6 +80,7 @@ def chm_run(input, output, *, surface: SurfaceOptions | None = None,
                     mos.write(r[key], r["left"], r["top"])
                 tally.add(r)
                 dtm_labels.add(r["dtm_method"])
+            check_points(area, tally, read)
             params = {"res": plan.res, "dtm": _dtm_label(dtm_labels), "chm": surface.chm,
                       "fill": surface.fill, "outliers": surface.outliers, **read.describe(),
                       "tiles": len(plan.tiles), "buffer": plan.buffer}
@@ -133,8 +134,7 @@ def grid_run(input, output, *, res="auto", stat: str = "max", fill: str = "none"
                                    progress=SubProgress(prog, 0.3, 0.98)):
                     mos.write(r["grid"], r["left"], r["top"])
                     tally.add(r)
-                if tally.points == 0:
-                    raise InputError(f"{input}: no points")
+                check_points(area, tally, read)
             finally:
                 mos.close()
     prog.update(1.0, "done")

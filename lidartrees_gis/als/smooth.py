@@ -21,6 +21,10 @@ GAUSS_COARSE = np.array([[1, 2, 3, 2, 1], [2, 4, 5, 4, 2], [3, 5, 7, 5, 3], [2, 
                          [1, 2, 3, 2, 1]], dtype=np.float64) / 75.0
 #: default element sizes (cells across): cross and square 3 x 3, rhombus 5 x 5
 DEFAULT_SIZE = {"cross": 3, "square": 3, "rhombus": 5}
+#: the largest structuring element (cells across) and Gaussian sigma (cells): wider filters
+#: are far larger than any crown (and an element of 999 cells ran for minutes)
+MAX_ELEMENT = 51
+MAX_SIGMA_CELLS = 50.0
 COMPOSITES = ("erode", "dilate", "open", "close", "abefec", "fecabe", "fecabefec", "abefecabe")
 
 
@@ -34,8 +38,9 @@ def footprint(shape: str = "cross", size: int | None = None) -> np.ndarray:
     if shape not in DEFAULT_SIZE:
         raise InputError(f"-smooth: unknown element {shape!r}; use cross, square or rhombus")
     size = DEFAULT_SIZE[shape] if size is None else int(size)
-    if size < 1 or size % 2 == 0:
-        raise InputError(f"-smooth: element size must be odd and >= 1, got {size}")
+    if size < 1 or size % 2 == 0 or size > MAX_ELEMENT:
+        raise InputError(f"-smooth: element size must be odd, >= 1 and <= {MAX_ELEMENT} cells, "
+                         f"got {size}")
     r = size // 2
     yy, xx = np.mgrid[-r:r + 1, -r:r + 1]
     if shape == "square":
@@ -50,6 +55,9 @@ def gaussian_1d(sigma_cells: float) -> np.ndarray:
     one cell): the 2-D kernel is its outer product with itself."""
     if not sigma_cells > 0:
         raise InputError(f"-smooth gauss:SIGMA needs SIGMA > 0, got {sigma_cells}")
+    if sigma_cells > MAX_SIGMA_CELLS:
+        raise InputError(f"-smooth gauss:SIGMA: {sigma_cells:g} cells is over {MAX_SIGMA_CELLS} "
+                         "cells (SIGMA is in metres; a crown is a few metres across)")
     r = max(1, int(np.ceil(3 * sigma_cells)))
     x = np.arange(-r, r + 1)
     g = np.exp(-x ** 2 / (2 * sigma_cells ** 2))

@@ -236,6 +236,42 @@ def _without_low(acc, x, y, z, drop: bool):
     return (x, y, z) if not low.any() else (x[~low], y[~low], z[~low])
 
 
+#: -dtm min: a cell whose lowest return lies more than this below the median lowest return of
+#: its block of cells (:func:`_block_median`) is a stray low return (a typo, multipath), not terrain: no tree
+#: is this tall and no ground drops this much within two cells
+LOW_CELL_DEPTH = 150.0
+
+
+def _without_low_cells(acc, zmin: np.ndarray) -> np.ndarray:
+    """``zmin`` (each cell's lowest return) without the cells of a stray low return
+    (:data:`LOW_CELL_DEPTH`), set to NaN and counted in ``acc.low_points``."""
+    ok = np.isfinite(zmin)
+    if ok.sum() < 2:
+        return zmin
+    ref = _block_median(zmin)
+    with np.errstate(invalid="ignore"):
+        low = ok & (zmin < ref - LOW_CELL_DEPTH)
+    acc.low_points = int(low.sum())
+    return np.where(low, np.nan, zmin) if low.any() else zmin
+
+
+def _block_median(zmin: np.ndarray, block: int = 16) -> np.ndarray:
+    """The median of each ``block`` x ``block`` block's finite values, on every cell of it (a
+    cheap neighbourhood for large grids)."""
+    h, w = zmin.shape
+    H, W = -(-h // block) * block, -(-w // block) * block
+    pad = np.full((H, W), np.nan)
+    pad[:h, :w] = zmin
+    b = pad.reshape(H // block, block, W // block, block).transpose(0, 2, 1, 3).reshape(
+        H // block, W // block, -1)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # an empty block: NaN
+        med = np.nanmedian(b, axis=2)
+    return np.repeat(np.repeat(med, block, 0), block, 1)[:h, :w]
+
+
 def _terrain(src, method: DtmMethod, acc: _Accumulators, spec: GridSpec, dsm_raw, fill, prog,
              stats: SurfaceStats, drop_low: bool = True, where=None):
     """The DTM by ``method``: ``(dtm, kind)`` (``kind`` what ``auto`` chose: the area's choice
@@ -249,7 +285,10 @@ def _terrain(src, method: DtmMethod, acc: _Accumulators, spec: GridSpec, dsm_raw
         if kind == "ground" and not has_ground:
             kind = "lowest"
     if kind == "min":
-        return fill_gaps(acc.acc.result("min"), fill), kind
+        zmin = acc.acc.result("min")
+        if drop_low:
+            zmin = _without_low_cells(acc, zmin)
+        return fill_gaps(zmin, fill), kind
     if kind == "none":
         return np.zeros(spec.shape), kind
     if kind == "ground":

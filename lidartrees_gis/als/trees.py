@@ -179,6 +179,8 @@ class TreeParams:
             raise InputError(f"-planting: expected auto or none, got {self.planting!r}")
         if not (np.isfinite(self.step) and self.step > 0):
             raise InputError(f"-step must be > 0 (m), got {self.step}")
+        if str(self.smooth).strip().lower() != "auto":  # its name and size, before the run
+            smooth_chm(np.zeros((1, 1)), self.smooth, res=1.0)
 
     def as_dict(self) -> dict:
         d = asdict(self)

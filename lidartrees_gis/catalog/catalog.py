@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..crs import crs_label
+from ..crs import check_coordinates, crs_label
 from ..errors import CRSError, InputError
 from ..io.options import ReadOptions
 from .inputs import ept_crs, expand_inputs, is_ept
@@ -35,6 +35,9 @@ class Catalog:
     skipped: int = 0  # malformed XYZ lines skipped (with read.skip_invalid)
     repro: object = None  # the -t_srs reprojection (of the first file), or None
     repros: list = field(default_factory=list)  # each file's -t_srs reprojection (or None)
+    keep_box: tuple | None = None  # points outside it are stray and left out (drop_far_points)
+    far: int = 0  # the stray points left out
+    far_checked: bool = False  # whether the points were looked at for stray ones
 
     @classmethod
     def open(cls, inputs, read: ReadOptions | None = None) -> "Catalog":
@@ -48,6 +51,7 @@ class Catalog:
             if a_srs is not None:
                 read = read.with_crs(a_srs)
         bounds, counts, crs, skipped, repro, repros = [], [], None, 0, None, []
+        overridden = []  # the files' own CRSs that -a_srs replaces
         for f in files:
             src = read.open(f)
             hb = src.header_bounds() if src.format == "las" else None
@@ -59,6 +63,11 @@ class Catalog:
                 bounds.append(tuple(st.bounds))
                 counts.append(int(st.count))
                 skipped += int(st.skipped or 0)
+                if src.format != "las" and src.repro is None:  # LAS: checked on its header
+                    check_coordinates(src.crs, st.bounds, f, given=src.file_crs is None)
+            if read.a_srs is not None and src.file_crs is not None \
+                    and not src.file_crs.equals(src.src_crs, ignore_axis_order=True):
+                overridden.append(crs_label(src.file_crs))
             repro = repro or src.repro
             repros.append(src.repro)
             if src.crs is not None:
@@ -70,7 +79,27 @@ class Catalog:
                         f"{crs_label(crs)}; give -t_srs (e.g. -t_srs {crs_label(crs).split()[0]}) "
                         "to transform every file from its own CRS into one (-a_srs would only "
                         "relabel them and misplace the data)")
+        if overridden:
+            warn_overridden(overridden, len(files), crs)
         return cls(files, bounds, counts, crs, read, skipped, repro, repros)
+
+    def header_bounds(self):
+        """The area's extent (for :func:`lidartrees_gis.grid.resolve_resolution`)."""
+        return self.extent
+
+    @property
+    def count_hint(self) -> int:
+        """The points of the area less the stray ones left out."""
+        return self.count - self.far
+
+    def keeps(self, x, y) -> np.ndarray:
+        """Which of the points ``(x, y)`` are not stray (all of them when none was found)."""
+        x, y = np.asarray(x), np.asarray(y)
+        if self.keep_box is None:
+            return np.ones(x.shape, bool)
+        x0, y0, x1, y1 = self.keep_box
+        return (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
+
 
     @property
     def path(self) -> Path:
@@ -118,6 +147,43 @@ class Catalog:
         x0, y0, x1, y1 = box
         return [f for f, b in zip(self.files, self.bounds)
                 if b[0] <= x1 and b[2] >= x0 and b[1] <= y1 and b[3] >= y0]
+
+
+#: an area of at most this many points is read once at opening for points far from the rest
+FAR_CHECK_POINTS = 5_000_000
+
+
+def far_points(x, y) -> tuple:
+    """``(mask, bounds of the others)`` of points far from the bulk: beyond the 1 and 99 %
+    quantiles of x or y by more than their span (at least 100 m), when they are at most 1 % of
+    the points; else an empty mask and None."""
+    far = np.zeros(x.size, bool)
+    for v in (x, y):
+        lo, hi = np.quantile(v, [0.01, 0.99])
+        pad = max(hi - lo, 100.0)
+        far |= (v < lo - pad) | (v > hi + pad)
+    if not far.any() or far.sum() > 0.01 * x.size:
+        return np.zeros(x.size, bool), None
+    k = ~far
+    return far, (float(x[k].min()), float(y[k].min()), float(x[k].max()), float(y[k].max()))
+
+
+def warn_overridden(labels: list, files: int, crs) -> None:
+    """One warning that -a_srs replaces the CRS the files carry (``labels``: each overridden
+    file's own CRS): how many files and which CRSs."""
+    import warnings
+
+    from ..errors import DataWarning
+
+    kinds = sorted(set(labels))
+    warnings.warn(DataWarning(
+        f"-a_srs {crs_label(crs)} overrides the CRS of {len(labels)} of {files} file(s), which "
+        f"carry {'; '.join(kinds)}: their coordinates are relabelled, not transformed (give "
+        "-t_srs instead of -a_srs to transform them)"), stacklevel=3)
+
+
+#: the largest tile side given (m); none (inf) is one tile
+MAX_TILE_SIDE = 1e5
 
 
 @dataclass(frozen=True)
@@ -169,6 +235,9 @@ class TilingOptions:
                     raise InputError(f"-tile_size: expected metres, auto or none, got {ts!r}") from None
         if ts is not None and not ts > 0:
             raise InputError(f"-tile_size must be > 0 m, got {self.tile_size!r}")
+        if ts is not None and math.isfinite(ts) and ts > MAX_TILE_SIDE:
+            raise InputError(f"-tile_size {ts:g} m is over {MAX_TILE_SIDE:g} m; give none for "
+                             "one tile")
         object.__setattr__(self, "tile_size", None if ts is None else float(ts))
         for k in ("buffer", "workers"):
             v = getattr(self, k)

@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING
 
 import math
 
-from ..crs import crs_label
+from ..crs import check_coordinates, crs_label
 from ..io.provenance import repro_report
 
 if TYPE_CHECKING:
@@ -16,6 +16,13 @@ if TYPE_CHECKING:
 def info(src: PointSource, progress=None) -> dict:
     """Points, bounds, density (pts/m²), CRS, classes and returns of a point source."""
     st = src.scan(progress)
+    if src.format != "las" and src.repro is None:  # LAS: checked on its header when opened
+        check_coordinates(src.crs, st.bounds, src.path, given=src.file_crs is None)
+    if src.file_crs is not None and src.src_crs is not None \
+            and not src.file_crs.equals(src.src_crs, ignore_axis_order=True):
+        from .catalog import warn_overridden
+
+        warn_overridden([crs_label(src.file_crs)], 1, src.src_crs)
     out = {
         "file": str(src.path),
         "format": src.format,

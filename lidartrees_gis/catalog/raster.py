@@ -28,9 +28,10 @@ class RasterArea:
     @classmethod
     def open(cls, path, a_srs=None) -> "RasterArea":
         from ..crs import parse_crs
-        from ..io.raster import read_raster_spec
+        from ..io.raster import read_raster_spec, warn_unset_nodata
 
         spec = read_raster_spec(path)
+        warn_unset_nodata(path)
         if a_srs:
             spec = spec.with_crs(parse_crs(a_srs))
         return cls(Path(path), spec)

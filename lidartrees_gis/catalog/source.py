@@ -10,7 +10,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..io.points import PointChunk
-from .catalog import Catalog
+from .catalog import FAR_CHECK_POINTS, Catalog, far_points
 
 
 #: decompressed points kept per process (bytes), so that the neighbouring tiles whose buffers
@@ -193,8 +193,10 @@ class TileSource:
     repro = None
     skipped = 0
 
-    def __init__(self, catalog: Catalog, box, *, chunk_size: int = 1_000_000):
+    def __init__(self, catalog: Catalog, box, *, chunk_size: int = 1_000_000,
+                 cache: bool = True):
         self.catalog = catalog
+        self.cache = cache  # False: read the files without the read caches
         self.box = tuple(float(v) for v in box)
         self.files = catalog.files_for(self.box)
         self.path = Path(f"tile {self.box[0]:.0f},{self.box[1]:.0f}") if len(catalog.files) > 1 \
@@ -216,6 +218,8 @@ class TileSource:
         x0, y0, x1, y1 = self.box
         self.dropped = {}
         cache, read, shared = READ_CACHE, self.catalog.read, shared_cache()
+        if not self.cache:
+            cache, shared = ReadCache(0), None
         prog, nf = as_progress(progress), max(len(self.files), 1)
         for k, f in enumerate(self.files):
             try:
@@ -243,6 +247,8 @@ class TileSource:
                     if kept_bytes > cache.budget // 2:  # too big to keep anyway
                         kept = None
                 m = (c.x >= x0) & (c.x <= x1) & (c.y >= y0) & (c.y <= y1)
+                if self.catalog.keep_box is not None:  # stray points far from the rest
+                    m &= self.catalog.keeps(c.x, c.y)
                 if m.any():
                     yield c.subset(m)  # a copy: what is kept is never handed out
             if hit is None:
@@ -259,3 +265,49 @@ class TileSource:
 
     def scan(self, progress=None):
         raise InputError("a tile is scanned through its catalog")
+
+
+def drop_far_points(cat: Catalog) -> int:
+    """Find the few points far from all the others (:func:`far_points`; a typo in a
+    coordinate, a return from a bird or an aircraft's other strip) and leave them out of
+    everything: the area's extent, its tiles and every file's points become those of the
+    others, so they change neither the cell size nor the tiles nor the trees. One warning
+    names them; their count is in ``cat.far`` (and each command's summary). Looked for
+    when the area holds at most :data:`FAR_CHECK_POINTS` points (one read of them all)."""
+    if cat.far_checked or not 10 <= cat.count <= FAR_CHECK_POINTS:
+        return cat.far
+    cat.far_checked = True
+    from ..io.las import one_thread
+
+    # this process may fork its workers next: LAZ is decoded on one thread (a forked child
+    # hangs on a decoder's thread pool), and not kept (the sequential decoder reads files the
+    # parallel one refuses, whose refusal must not depend on this look)
+    laz = any(str(f).lower().endswith(".laz") for f in cat.files)
+    xs, ys = [], []
+    with one_thread():
+        for c in TileSource(cat, cat.extent, cache=not laz).chunks():
+            xs.append(np.asarray(c.x, float))
+            ys.append(np.asarray(c.y, float))
+    if not xs:
+        return 0
+    x, y = np.concatenate(xs), np.concatenate(ys)
+    far, rest = far_points(x, y)
+    n = int(far.sum())
+    if not n:
+        return 0
+    cat.keep_box, cat.far = rest, n
+    cat.bounds = [(max(b[0], rest[0]), max(b[1], rest[1]), min(b[2], rest[2]),
+                   min(b[3], rest[3])) for b in cat.bounds]
+    import warnings
+
+    from ..errors import DataWarning
+
+    x0, y0, x1, y1 = (min(float(x.min()), rest[0]), min(float(y.min()), rest[1]),
+                      max(float(x.max()), rest[2]), max(float(y.max()), rest[3]))
+    where = ", ".join(f"({a:.2f}, {b:.2f})" for a, b in zip(x[far][:3], y[far][:3]))
+    warnings.warn(DataWarning(
+        f"{cat.label()}: {n:,} point(s) lie far from the other {x.size - n:,} ({where}"
+        f"{' ...' if n > 3 else ''}) and are left out of every output: they would stretch "
+        f"the {rest[2] - rest[0]:,.0f} x {rest[3] - rest[1]:,.0f} m of the others to "
+        f"{x1 - x0:,.0f} x {y1 - y0:,.0f} m"), stacklevel=3)
+    return n

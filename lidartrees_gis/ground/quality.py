@@ -11,7 +11,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..catalog.catalog import Catalog
-from ..catalog.inputs import is_catalog_input
+from ..catalog.source import drop_far_points
 from ..grid import GridSpec, resolve_resolution
 from ..io.options import ReadOptions
 from ..io.provenance import raster_tags, repro_report
@@ -139,7 +139,8 @@ def dtm_quality_file(input, outdir, *, g="-4:1:0.5", w="1:4:0.5", res="auto", pa
     read = read or ReadOptions()
     stack = contextlib.ExitStack()
     with stack:
-        area = Catalog.open(input, read) if is_catalog_input(input) else None
+        area = Catalog.open(input, read)  # a file is a catalog of one
+        drop_far_points(area)  # stray points far from the rest: left out (a hang before)
         if area is not None and len(area.files) > 1:
             # several files: each (g, w) over each file with a buffer, DTMs kept on disk
             from .quality_area import footprint_and_reference, sweep_area
@@ -164,6 +165,9 @@ def dtm_quality_file(input, outdir, *, g="-4:1:0.5", w="1:4:0.5", res="auto", pa
             src = read.open(area.files[0] if area is not None else input, filtered=False)
             pts = src.read_all(SubProgress(prog, 0, 0.05))
             r = resolve_resolution(src, res)
+            if area.keep_box is not None:  # stray far points left out, of the cell size too
+                pts = pts.subset(area.keeps(pts.x, pts.y))
+                r = resolve_resolution(area, res)
             spec = GridSpec.from_bounds(pts.x.min(), pts.y.min(), pts.x.max(), pts.y.max(), r,
                                         crs=src.crs)
             ref, ref_source = _reference(reference, pts, spec)

@@ -22,6 +22,7 @@ from .._version import __version__
 from ..catalog.catalog import Catalog, TilingOptions
 from ..catalog.mosaic import MosaicWriter
 from ..catalog.runner import FailedTiles, TileRunner, default_workers
+from ..catalog.source import drop_far_points
 from ..crs import crs_label
 from ..errors import InputError
 from ..grid import GridSpec, auto_resolution, check_resolution
@@ -124,7 +125,7 @@ def classify_buffered(f, area: Catalog, params: KrausPfeifer, buffer: float, ref
     k = list(area.files).index(f)
     src = area.read.open(f, filtered=False)
     pts = src.read_all(SubProgress(prog, 0.0, 0.25))
-    use = filtered_points(pts, f)
+    use = filtered_points(pts, f) & area.keeps(pts.x, pts.y)  # stray far points never ground
     box = area.clip(area.bounds[k], buffer)
     nb = _neighbours(area, k, box) if len(area.files) > 1 else None
     n_nb = 0 if nb is None else len(nb)
@@ -198,6 +199,7 @@ def ground_run(input, output, *, dtm_out=None, res="auto", params=None,
     prog = as_progress(progress)
     check_outputs([(dtm_out, "-dtm_out")], (), out.overwrite)
     area = Catalog.open(input, read)
+    drop_far_points(area)  # stray points far from the rest: left out (a hang before)
     finals = output_paths(area, output)
     folder = Path(output) if len(finals) > 1 else None
     if folder is not None and not folder.exists():  # made once the checks pass
@@ -262,7 +264,7 @@ def ground_run(input, output, *, dtm_out=None, res="auto", params=None,
               "ground_share": totals["ground"] / max(totals["points"], 1),
               "crs": crs_label(area.crs), "reprojection": repro_report(area),
               "buffer": buffer if len(area.files) > 1 else None,
-              "workers": workers or os.cpu_count()}
+              "far_points": area.far or None, "workers": workers or os.cpu_count()}
     if dtm_out:
         from ..io.styles import write_sidecar_style
 

@@ -143,10 +143,32 @@ def _check_las_header(path, h, count):
                         f"{size:,}-byte LAZ file; the header is wrong")
 
 
+#: set by :func:`one_thread`: decompress on the calling thread only
+_ONE_THREAD = []
+
+
+class one_thread:
+    """Within it, LAZ files are decompressed on the calling thread (no thread pool started):
+    a process that may fork its Dask workers afterwards reads this way, since a forked child
+    inherits a thread pool's locks but not its threads and hangs on them."""
+
+    def __enter__(self):
+        _ONE_THREAD.append(True)
+        return self
+
+    def __exit__(self, *exc):
+        _ONE_THREAD.pop()
+        return False
+
+
 def laz_backend():
     """LAZ decompressor for this process: laspy's default (lazrs on all cores) in a single
     process, one thread inside a Dask worker, whose siblings already use the other cores (a
-    parallel decompressor per worker only oversubscribes them)."""
+    parallel decompressor per worker only oversubscribes them), and within :class:`one_thread`."""
+    if _ONE_THREAD:
+        import laspy
+
+        return laspy.LazBackend.Lazrs if laspy.LazBackend.Lazrs.is_available() else None
     if "distributed" in sys.modules:
         from distributed import get_worker
 
@@ -250,3 +272,57 @@ def las_chunks(src, progress):
         kind = "LAZ" if src.path.suffix.lower() == ".laz" else "LAS"
         raise ReadError(f"{src.path}: cannot read {kind} points, the file is truncated or "
                         f"corrupt ({type(exc).__name__}: {str(exc)[:120]})") from None
+
+
+def _crs_records(h) -> list:
+    """``(kind, CRS or None)`` of each CRS record of a LAS header, in file order (VLRs, then
+    EVLRs): ``geokeys`` (GeoKeyDirectory, 34735) and ``wkt`` (OGC WKT, 2112)."""
+    from laspy.vlrs.known import GeoKeyDirectoryVlr, WktCoordinateSystemVlr
+
+    recs = list(h.vlrs) + list(getattr(h, "evlrs", None) or [])
+    out = []
+    for rec in recs:
+        kind = ("wkt" if isinstance(rec, WktCoordinateSystemVlr) else
+                "geokeys" if isinstance(rec, GeoKeyDirectoryVlr) else None)
+        if kind is None:
+            continue
+        try:
+            crs = rec.parse_crs()
+        except Exception:  # noqa: BLE001 - an unreadable record counts as no CRS
+            crs = None
+        out.append((kind, crs))
+    return out
+
+
+def las_crs(h, path):
+    """The CRS of a LAS header by the rule of the LAS specification, warning in one line when
+    its CRS records disagree (which one is used and why).
+
+    LAS 1.4 with the WKT bit of the global encoding set (required for point formats 6-10) is
+    described by its (first readable) OGC WKT record; a LAS 1.0-1.3 file, or a 1.4 file without
+    the bit, by its GeoKeys (WKT records are not part of those). When the record the rule names
+    is absent or unreadable, the other kind is used. None when the file holds no readable CRS.
+    """
+    recs = _crs_records(h)
+    found = [(k, c) for k, c in recs if c is not None]
+    if not found:
+        return None
+    minor = int(str(h.version).split(".")[-1])
+    wkt_bit = minor >= 4 and bool(getattr(h.global_encoding, "wkt", False))
+    want, why = ("wkt", f"LAS 1.{minor} with the WKT bit of the global encoding set") if wkt_bit \
+        else ("geokeys", f"LAS 1.{minor}" + (" without the WKT bit" if minor >= 4 else ""))
+    chosen = next(((k, c) for k, c in found if k == want), found[0])
+    others = {c.to_wkt(): (k, c) for k, c in found
+              if not c.equals(chosen[1], ignore_axis_order=True)}
+    if others:
+        from ..crs import crs_label
+        from ..errors import DataWarning
+
+        names = {"wkt": "WKT record", "geokeys": "GeoKeys"}
+        rule = (f"its {names[chosen[0]]}, as {why} requires" if chosen[0] == want else
+                f"its {names[chosen[0]]}: {why}, but no readable {names[want]}")
+        other = "; ".join(f"{names[k]} {crs_label(c)}" for k, c in others.values())
+        warnings.warn(DataWarning(
+            f"{path}: the file's CRS records disagree; using {crs_label(chosen[1])} ({rule}), "
+            f"not {other}; give -a_srs if the other is right"), stacklevel=2)
+    return chosen[1]

@@ -12,11 +12,11 @@ from typing import Iterator
 
 import numpy as np
 
-from ..crs import Reprojection, crs_from_sidecar, parse_crs, reprojection
+from ..crs import Reprojection, check_coordinates, crs_from_sidecar, parse_crs, reprojection
 from ..errors import CRSError, InputError, ReadError
 from .chunk import PointChunk, PointStats
-from .las import (_check_las_header, _check_las_raw, _DecoderStderr, las_chunks, las_point_count,
-                  laz_backend)
+from .las import (_check_las_header, _check_las_raw, _DecoderStderr, las_chunks, las_crs,
+                  las_point_count, laz_backend)
 from .xyz import XYZDialect, sniff_xyz, xyz_chunks
 
 LAS_SUFFIXES = (".las", ".laz")
@@ -44,6 +44,7 @@ class PointSource:
         self.drop_classes: frozenset = frozenset()
         self.keep_classes: frozenset | None = None
         self.dropped: dict = {}  # class -> points dropped by the class filter
+        self.file_crs = None  # the file's own CRS (set by open_points)
 
     def set_class_filter(self, drop=None, keep=None) -> None:
         """Drop points of the classes ``drop`` (e.g. 7 and 18, noise) or keep only the classes
@@ -205,11 +206,7 @@ def open_points(path, *, a_srs=None, t_srs=None, delimiter=None, decimal_comma=N
                     "version": str(h.version),
                     "point_format": int(h.point_format.id),
                 }
-                file_crs = None
-                try:
-                    file_crs = h.parse_crs()
-                except Exception:  # noqa: BLE001 - a broken CRS VLR is reported as no CRS
-                    file_crs = None
+                file_crs = las_crs(h, path)
         except BaseException as exc:  # noqa: BLE001 - a decoder panic is a BaseException
             if isinstance(exc, (KeyboardInterrupt, SystemExit)):
                 raise
@@ -219,11 +216,15 @@ def open_points(path, *, a_srs=None, t_srs=None, delimiter=None, decimal_comma=N
             raise InputError(f"{path}: the LAS header says the file holds no points")
         _check_las_header(path, h, info["count"])
         src = PointSource(path, "las", crs or file_crs, chunk_size=chunk_size, header_info=info)
+        check_coordinates(crs or file_crs, info["bounds"], path,
+                          given=crs is not None)
     else:
         dialect = sniff_xyz(path, delimiter=delimiter, decimal_comma=decimal_comma, header=header,
                             columns=columns)
-        src = PointSource(path, "xyz", crs or crs_from_sidecar(path), dialect=dialect,
+        file_crs = crs_from_sidecar(path)
+        src = PointSource(path, "xyz", crs or file_crs, dialect=dialect,
                           skip_invalid=skip_invalid, chunk_size=chunk_size)
+    src.file_crs = file_crs  # the file's own CRS (its records or its .prj), even under -a_srs
     if t_srs:
         if src.src_crs is None:
             from ..crs import missing_crs_hint

@@ -132,11 +132,55 @@ def _spec_of(ds, path) -> GridSpec:
     return GridSpec(t.c, t.f, t.a, ds.width, ds.height, crs)
 
 
+#: values taken as nodata in a raster that declares none: the common "no data" markers
+#: (-9999, -32768) and anything beyond 1e30 in size (ArcGIS's -3.4e38, float32's extremes);
+#: no height or elevation takes them
+NODATA_MARKERS = (-9999.0, -32768.0)
+NODATA_BEYOND = 1e30
+
+
+def unset_nodata(arr: np.ndarray) -> np.ndarray:
+    """Which cells of a raster without a nodata value hold a nodata marker
+    (:data:`NODATA_MARKERS`, or a magnitude over :data:`NODATA_BEYOND`)."""
+    with np.errstate(invalid="ignore"):
+        return np.isin(arr, NODATA_MARKERS) | (np.abs(arr) > NODATA_BEYOND)
+
+
 def _band(ds, window=None) -> np.ndarray:
     arr = ds.read(1, window=window).astype(np.float64)
     if ds.nodata is not None:
         arr[arr == ds.nodata] = np.nan
+    else:  # no nodata declared: the markers such files use (see warn_unset_nodata)
+        arr[unset_nodata(arr)] = np.nan
     return arr
+
+
+def warn_unset_nodata(path) -> None:
+    """One warning when a raster declares no nodata value but its border rows and columns
+    hold a nodata marker (:func:`unset_nodata`): those cells are read as nodata."""
+    import rasterio
+    from rasterio.windows import Window
+
+    try:
+        with rasterio.open(path) as ds:
+            if ds.nodata is not None or ds.width == 0 or ds.height == 0:
+                return
+            w, h = ds.width, ds.height
+            edges = [ds.read(1, window=Window(0, 0, w, 1)), ds.read(1, window=Window(0, h - 1, w, 1)),
+                     ds.read(1, window=Window(0, 0, 1, h)), ds.read(1, window=Window(w - 1, 0, 1, h))]
+    except rasterio.errors.RasterioIOError:
+        return
+    vals = np.concatenate([np.asarray(e, np.float64).ravel() for e in edges])
+    bad = vals[unset_nodata(vals)]
+    if bad.size:
+        import warnings
+
+        from ..errors import DataWarning
+
+        warnings.warn(DataWarning(
+            f"{path}: the raster declares no nodata value but its border holds {bad[0]:g} "
+            "cells; they (and any cell of -9999, -32768 or beyond 1e30) are read as nodata"),
+            stacklevel=3)
 
 
 def read_raster(path):
@@ -191,3 +235,49 @@ def resample_to(src_array, src_spec: GridSpec, spec: GridSpec) -> np.ndarray:
               src_crs=scrs, dst_transform=spec.transform, dst_crs=dcrs or scrs,
               resampling=Resampling.bilinear, src_nodata=np.nan, dst_nodata=np.nan)
     return dst
+
+
+def check_creation_options(items) -> None:
+    """Check GDAL creation options (``-co KEY=VALUE``, a list or a dict) before a run, by
+    creating a small GeoTIFF with them (and the defaults they add to) in a temporary folder:
+    an option GDAL rejects or ignores (a wrong name, a value it does not know, blocks that are
+    not multiples of 16) is a one-line error naming it."""
+    if not items:
+        return
+    import logging
+    import tempfile
+
+    import rasterio
+    from rasterio.transform import from_origin
+
+    co = dict(DEFAULT_CO)
+    co.update(parse_kv(items) if not isinstance(items, dict) else
+              {str(k).upper(): v for k, v in items.items()})
+    co, _ = split_overviews(co)
+    given = ", ".join(f"{k}={v}" for k, v in (parse_kv(items) if not isinstance(items, dict)
+                                              else items).items())
+    said = []
+
+    class _Catch(logging.Handler):
+        def emit(self, record):
+            said.append(record.getMessage())
+
+    log = logging.getLogger("rasterio._env")
+    handler = _Catch(logging.WARNING)
+    log.addHandler(handler)
+    try:
+        with tempfile.TemporaryDirectory(prefix=".lidartrees-co-") as tmp:
+            with rasterio.open(f"{tmp}/check.tif", "w", driver="GTiff", width=256, height=256,
+                               count=1, dtype="float32", transform=from_origin(0, 256, 1, 1),
+                               nodata=NODATA, **co) as ds:
+                ds.write(np.zeros((1, 256, 256), np.float32))
+    except Exception as exc:  # noqa: BLE001 - GDAL's own reasons, as one line
+        raise InputError(f"-co {given}: GDAL refuses these GeoTIFF creation options "
+                         f"({str(exc).splitlines()[0][:160]})") from None
+    finally:
+        log.removeHandler(handler)
+    bad = [m for m in said if "creation option" in m or "not recognised" in m
+           or "CPLE_NotSupported" in m or "CPLE_IllegalArg" in m]
+    if bad:
+        raise InputError(f"-co {given}: GDAL does not take these GeoTIFF creation options "
+                         f"({bad[0][:160]})")

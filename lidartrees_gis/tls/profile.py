@@ -66,6 +66,10 @@ def zero_crossings(d2, z):
     return out
 
 
+#: the most slices a profile is cut into (the counts and their smoothing are arrays of it)
+MAX_BINS = 2_000_000
+
+
 def density_profile(z, *, bin: float = 0.05, sigma: float = 0.3):  # noqa: A002 - seed's name
     """Counts per slice, smoothed counts and second derivative. Returns a dict with ``z`` (slice
     centres above z_min), ``counts``, ``smooth``, ``d2``."""
@@ -78,6 +82,9 @@ def density_profile(z, *, bin: float = 0.05, sigma: float = 0.3):  # noqa: A002 
         raise InputError(f"profile: {z.size} points; too few for a profile")
     zn = z - z.min()
     nb = int(np.floor(zn.max() / bin)) + 1
+    if nb > MAX_BINS:
+        raise InputError(f"-bin {bin:g} m makes {nb:,} slices over the {zn.max():.1f} m of the "
+                         f"points' heights, more than {MAX_BINS:,}; give a larger -bin")
     counts = np.bincount(np.minimum((zn / bin).astype(np.int64), nb - 1), minlength=nb).astype(float)
     smooth = gaussian_filter1d(counts, sigma / bin, mode="constant", cval=0.0)
     return {"z": (np.arange(nb) + 0.5) * bin, "counts": counts, "smooth": smooth,
