@@ -20,7 +20,8 @@ def _empty(n_tops: int) -> dict:
     return {"grid": None, "spacing": None, "expected": 0, "stocked": 0, "missing": 0, "extra": 0,
             "planted_area_ha": 0.0, "stocking_pct": float("nan"), "planted_per_ha": float("nan"),
             "gaps_x": e, "gaps_y": e, "gaps_i": e.astype(np.int64), "gaps_j": e.astype(np.int64),
-            "gaps_row": e.astype(np.int64), "gaps_plant": e.astype(np.int64), "look_x": e,
+            "gaps_row": e.astype(np.int64), "gaps_plant": e.astype(np.int64),
+            "gaps_edge": np.zeros(0, bool), "look_x": e,
             "look_y": e,
             "gaps_zone": e.astype(np.int64), "tops_row": z, "tops_plant": z.copy(),
             "shares": np.zeros(n_tops, bool),
@@ -64,6 +65,8 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
     def all_tops():
         if "all" not in out:
             out["all"] = grid if grid is not None else fit(tx, ty)
+            if out["all"] is not None:
+                out[("span", "all")] = row_spans(out["all"], tx, ty)
         return out["all"]
 
     if top_zone is None or whole:
@@ -76,7 +79,31 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
         enough = own.sum() >= (PLANTING_MIN_TREES if auto else STAND_FIT_MIN_TOPS)
         g = fit(tx[own], ty[own]) if enough else None
         out[int(k)] = g if g is not None else all_tops()
+        if out[int(k)] is not None:
+            out[("span", int(k))] = row_spans(out[int(k)], tx[own], ty[own])
     return out
+
+
+def row_spans(grid: PlantingGrid, x, y) -> tuple:
+    """Where a stand was planted, from its tops: each lattice row ``j`` that holds a top (within
+    half the smaller spacing of a position) and, in it, the first and last such position ``i``.
+    Returns ``(rows, first, last)`` (int64 arrays, rows sorted). Positions beyond a row's first
+    and last trees, and rows beyond the outermost planted ones, are no planting positions: a
+    stand polygon is drawn along roads and firebreaks, its first row some way inside it."""
+    fi, fj = grid.to_lattice(np.asarray(x, float), np.asarray(y, float))
+    ri, rj = np.rint(fi), np.rint(fj)
+    near = np.hypot((fi - ri) * grid.tree_spacing, (fj - rj) * grid.row_spacing) \
+        <= 0.5 * min(grid.row_spacing, grid.tree_spacing)
+    ri, rj = ri[near].astype(np.int64), rj[near].astype(np.int64)
+    if not rj.size:
+        e = np.empty(0, np.int64)
+        return e, e, e
+    rows, inv = np.unique(rj, return_inverse=True)
+    first = np.full(rows.size, np.iinfo(np.int64).max)
+    last = np.full(rows.size, np.iinfo(np.int64).min)
+    np.minimum.at(first, inv, ri)
+    np.maximum.at(last, inv, ri)
+    return rows, first, last
 
 
 def lattice_anchor(grid: PlantingGrid, region, res: float) -> tuple:
@@ -190,9 +217,10 @@ def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: flo
         if g is None:
             continue
         sp = (g.row_spacing, g.tree_spacing)
+        span = grids.get(("span", k)) if k in grids else grids.get(("span", "all"))
         parts[k] = stocking(tx, ty, a, spec, sp, min_height=min_height, grid=g, within=within,
                             planted=planted(sp) & (zone == k), own=own if zoned else None,
-                            anchor=grids.get(("anchor", k)))
+                            anchor=grids.get(("anchor", k)), span=span)
         parts[k]["spacing"] = sp
     if not parts:
         return {**_empty(tx.size), "grids": grids}
@@ -201,7 +229,7 @@ def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: flo
                                                            "extra", "planted_area_ha")}
     cat = {k: np.concatenate([p[k] for p in parts.values()])
            for k in ("gaps_x", "gaps_y", "gaps_i", "gaps_j", "gaps_row", "gaps_plant",
-                     "look_x", "look_y")}
+                     "gaps_edge", "look_x", "look_y")}
     tops_row = np.zeros(tx.size, np.int64)
     tops_plant = np.zeros(tx.size, np.int64)
     shares = np.zeros(tx.size, bool)
@@ -347,6 +375,25 @@ def classify_gaps(st: dict, points, spacing, dominant_height: float,
                         min_height, smaller=smaller)
     status, share = c["status"], c["share"]
     st = dict(st)
+    # a position just beyond a row's first or last tree (see :func:`row_spans`) is one only
+    # where a tree stands: with nothing there, the row ends before it
+    drop = np.asarray(st.get("gaps_edge", np.zeros(status.size, bool)), bool) & \
+        (status == MISSING)
+    if drop.any():
+        keep = ~drop
+        gz = np.asarray(st.get("gaps_zone", np.full(status.size, -1)))
+        for key in ("gaps_x", "gaps_y", "gaps_i", "gaps_j", "gaps_row", "gaps_plant",
+                    "gaps_zone", "gaps_edge"):
+            if key in st:
+                st[key] = np.asarray(st[key])[keep]
+        c = {key: np.asarray(v)[keep] for key, v in c.items()}
+        status, share = c["status"], c["share"]
+        n = int(drop.sum())
+        st["expected"], st["missing"] = st["expected"] - n, st["missing"] - n
+        if "zones" in st:
+            st["zones"] = {k: {**z, "expected": z["expected"] - int((drop & (gz == k)).sum()),
+                               "missing": z["missing"] - int((drop & (gz == k)).sum())}
+                           for k, z in st["zones"].items()}
     st["gaps_status"] = status
     st["gaps_share"], st["gaps_returns"] = share, c["returns"]
     st["gaps_height"], st["gaps_tree_x"], st["gaps_tree_y"] = c["height"], c["x"], c["y"]

@@ -227,7 +227,7 @@ def crew_numbers(grid: PlantingGrid, i, j, anchor=None) -> tuple:
 
 def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
              grid: PlantingGrid | None = None, within=None, planted=None, own=None,
-             anchor=None) -> dict:
+             anchor=None, span=None) -> dict:
     """Planting positions, missing trees and stocking of a plantation.
 
     Each planting position of the fitted lattice (:func:`fit_planting_grid`) that lies in the
@@ -250,6 +250,8 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
     positions, tops and planted cells inside this box are counted and reported (a tile's core).
     ``planted``: the planted cells when already known (:func:`stand_mask`, e.g. cut to one
     stand); ``own``: the tops counted as extra when they take no position (default all).
+    ``span``: the planted rows and each one's first and last tree
+    (:func:`lidartrees_gis.als.positions.row_spans`): positions beyond them are not counted.
     ``look_x, look_y``: every empty position, inside the box or not (a tree looked for at an
     empty position beyond a tile's core may stand inside it). ``anchor``: where the stand's
     numbers start (:func:`lidartrees_gis.als.positions.lattice_anchor`).
@@ -272,7 +274,17 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
     r, c = spec.cell_index(nx, ny)
     ok = inside & (r >= 0) & (r < spec.height) & (c >= 0) & (c < spec.width)
     ok[ok] &= mask[r[ok], c[ok]]
-    ii, jj, nx, ny = ii[ok], jj[ok], nx[ok], ny[ok]
+    edge = np.zeros(ok.size, bool)
+    if span is not None:  # the planted rows, each from its first to its last tree, and the
+        rows, first, last = span  # positions just beyond (kept only where a tree stands)
+        if rows.size:
+            k = np.clip(np.searchsorted(rows, jj.astype(np.int64)), 0, rows.size - 1)
+            inrow = rows[k] == jj
+            edge = inrow & ((ii == first[k] - 1) | (ii == last[k] + 1))
+            ok &= (inrow & (ii >= first[k]) & (ii <= last[k])) | edge
+        else:
+            ok[:] = False
+    ii, jj, nx, ny, edge = ii[ok], jj[ok], nx[ok], ny[ok], edge[ok]
     # one top per position: closest pairs first, within half the smaller spacing
     from ..report.evaluate import match_trees
 
@@ -304,7 +316,7 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
         x0, y0, x1, y1 = within
         inb = (nx >= x0) & (nx < x1) & (ny >= y0) & (ny < y1)
         ii, jj, nx, ny, stocked_mask = ii[inb], jj[inb], nx[inb], ny[inb], stocked_mask[inb]
-        row_no, plant_no = row_no[inb], plant_no[inb]
+        row_no, plant_no, edge = row_no[inb], plant_no[inb], edge[inb]
         expected, stocked = int(ii.size), int(stocked_mask.sum())
         gaps = ~stocked_mask
         free &= (tx >= x0) & (tx < x1) & (ty >= y0) & (ty < y1)
@@ -322,7 +334,8 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
             "planted_per_ha": 1e4 / (R * C), "planted_area_ha": planted_cells * spec.cell_area / 1e4,
             "gaps_x": nx[gaps], "gaps_y": ny[gaps], "gaps_i": ii[gaps].astype(np.int64),
             "gaps_j": jj[gaps].astype(np.int64), "gaps_row": row_no[gaps],
-            "gaps_plant": plant_no[gaps], "tops_row": tops_row, "tops_plant": tops_plant,
+            "gaps_plant": plant_no[gaps], "gaps_edge": edge[gaps],
+            "tops_row": tops_row, "tops_plant": tops_plant,
             "numbering": numbering, "shares": shares, "look_x": look_x, "look_y": look_y}
 
 
