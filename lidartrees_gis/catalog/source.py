@@ -284,10 +284,19 @@ def drop_far_points(cat: Catalog) -> int:
     # parallel one refuses, whose refusal must not depend on this look)
     laz = any(str(f).lower().endswith(".laz") for f in cat.files)
     xs, ys = [], []
-    with one_thread():
-        for c in TileSource(cat, cat.extent, cache=not laz).chunks():
-            xs.append(np.asarray(c.x, float))
-            ys.append(np.asarray(c.y, float))
+    from ..errors import Cancelled, LidarTreesError
+
+    try:
+        with one_thread():
+            for c in TileSource(cat, cat.extent, cache=not laz).chunks():
+                xs.append(np.asarray(c.x, float))
+                ys.append(np.asarray(c.y, float))
+    except Cancelled:
+        raise
+    except LidarTreesError:
+        # a file that cannot be read is not refused by this look: its tiles fail (and are
+        # named, or set aside with -on_error skip) as they would without it
+        return 0
     if not xs:
         return 0
     x, y = np.concatenate(xs), np.concatenate(ys)
