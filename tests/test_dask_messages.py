@@ -28,6 +28,7 @@ def cluster():
     from dask.distributed import Client, LocalCluster
 
     # the client refreshes its cached view often: the race the old watch lost, every second
+    saved = dict(os.environ)  # a default nanny sets MALLOC_TRIM_THRESHOLD_ in this process
     with dask.config.set({"distributed.client.scheduler-info-interval": "10ms"}):
         c = LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                          dashboard_address=":0", silence_logs=False)
@@ -36,6 +37,8 @@ def cluster():
         yield c, client
         client.close()
         c.close()
+    os.environ.clear()
+    os.environ.update(saved)
 
 
 def _messages(record):
