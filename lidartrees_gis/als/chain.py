@@ -355,7 +355,7 @@ def _stands_result(stands, rows, tally, stand_csv) -> dict:
             text += f", {r['lattice']}"
         elif "stocking_pct" in r:
             text += (f", stocking {_round(r['stocking_pct'], 1)} % "
-                     f"(95 % interval {_round(r['stocking_pct_low'], 1)}-"
+                     f"(unresolved positions {_round(r['stocking_pct_low'], 1)}-"
                      f"{_round(r['stocking_pct_high'], 1)}; "
                      f"{r['missing_trees']} "
                      f"missing, {r['suppressed_trees']} suppressed, "
