@@ -33,7 +33,7 @@ def qgis_app():
     app.initQgis()
     from qgis.PyQt.QtCore import QSettings
 
-    # the provider speaks QGIS's language (tests/qgis/test_i18n.py): English here, whatever LANG
+    # the provider speaks QGIS's language (tests/qgis/test_qgis_i18n.py): English here, whatever LANG
     QSettings().setValue("locale/userLocale", "en_US")
     from processing.core.Processing import Processing
 
