@@ -58,4 +58,5 @@ def test_command_not_found_message_names_an_install_that_works(monkeypatch, tmp_
     msg = _lib.executable_error()
     assert "'lidartrees' command was not found" in msg
     assert "pip install /path/to/lidartrees_gis" in msg and "install lidartrees_gis " not in msg
+    assert "lidartrees_gis-*.whl" in msg and "not published on PyPI" in msg
     assert "LIDARTREES_EXE" in msg and "lidartrees/executable" in msg

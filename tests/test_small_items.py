@@ -1,7 +1,6 @@
 """Issue 37's smaller items, each seen by a user: the QGIS plugin's install hint, the CHM's
 style beside the GeoTIFF, ISO 8601 times in the GeoPackages' layer_styles, row azimuths as
 one axis convention, printed figures rounded to what they mean, decimal commas in options."""
-import sys
 import re
 import sqlite3
 from pathlib import Path
@@ -25,20 +24,6 @@ def stand_las(tmp_path_factory):
     write_points(f, pts.x, pts.y, pts.z, crs=CRS.from_epsg(29194),
                  classification=pts.classification)
     return f, truth
-
-
-def test_plugin_install_hint_names_no_unpublished_package(monkeypatch, tmp_path):
-    sys.path.insert(0, str(ROOT))
-    from provider import _lib as lib
-
-    monkeypatch.delenv("LIDARTREES_EXE", raising=False)
-    monkeypatch.setenv("PATH", str(tmp_path))
-    monkeypatch.setenv("HOME", str(tmp_path))
-    text = lib.executable_error()
-    assert "was not found" in text
-    assert "pip install lidartrees_gis" not in text  # not published under that name
-    assert "pip install /path/to/lidartrees_gis" in text and ".whl" in text
-    assert "LIDARTREES_EXE" in text
 
 
 def test_chm_and_dtm_geotiffs_get_a_style_beside_them(stand_las, tmp_path):
