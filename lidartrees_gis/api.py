@@ -141,21 +141,32 @@ def metrics(input, output=None, *, res=20.0, plots=None, plot_id=None, plot_radi
     GeoDataFrame, "stand_metrics": GeoDataFrame}``. With ``output`` (``.tif`` or ``.gpkg``)
     they are written there too.
     """
+    from .inventory.chain import metrics_run
+
+    o = _inventory_options(min_height, returns, dtm, drop_class, keep_class, a_srs, t_srs,
+                           tile_size, workers, overwrite, read_kw)
+    return metrics_run(input, output, res=res, plots=plots, plot_id=plot_id,
+                       plot_radius=plot_radius, stands=stands, stand_id=stand_id,
+                       options=o["metric"], surface=o["surface"], read=o["read"],
+                       tiling=o["tiling"], out=o["out"], progress=progress)
+
+
+def _inventory_options(min_height, returns, dtm, drop_class, keep_class, a_srs, t_srs,
+                       tile_size, workers, overwrite, read_kw) -> dict:
+    """The option dataclasses :func:`metrics` and :func:`volume` pass alike: ``metric``,
+    ``surface`` (heights above the DTM, no CHM filling), ``read``, ``tiling``, ``out``."""
     from .als.surfaces import SurfaceOptions
     from .catalog.catalog import TilingOptions
-    from .inventory.chain import metrics_run
     from .inventory.tiles import MetricOptions
     from .io.options import ReadOptions
     from .io.output import OutputOptions
 
-    return metrics_run(input, output, res=res, plots=plots, plot_id=plot_id,
-                       plot_radius=plot_radius, stands=stands, stand_id=stand_id,
-                       options=MetricOptions(min_height=min_height, returns=returns),
-                       surface=SurfaceOptions(dtm=dtm, chm="max", fill="none", outliers=False),
-                       read=ReadOptions(a_srs=a_srs, t_srs=t_srs, drop_class=drop_class,
-                                        keep_class=keep_class, **read_kw),
-                       tiling=TilingOptions(tile_size=tile_size, workers=workers),
-                       out=OutputOptions(overwrite=overwrite), progress=progress)
+    return {"metric": MetricOptions(min_height=min_height, returns=returns),
+            "surface": SurfaceOptions(dtm=dtm, chm="max", fill="none", outliers=False),
+            "read": ReadOptions(a_srs=a_srs, t_srs=t_srs, drop_class=drop_class,
+                                keep_class=keep_class, **read_kw),
+            "tiling": TilingOptions(tile_size=tile_size, workers=workers),
+            "out": OutputOptions(overwrite=overwrite)}
 
 
 def volume(input, plots, output=None, *, stands, trees_table=None, plot_id=None,
@@ -185,24 +196,17 @@ def volume(input, plots, output=None, *, stands, trees_table=None, plot_id=None,
     array)``; with ``output`` (a ``.gpkg``) everything is also written (the raster and the
     report beside it).
     """
-    from .als.surfaces import SurfaceOptions
-    from .catalog.catalog import TilingOptions
     from .inventory.field import Equation
-    from .inventory.tiles import MetricOptions
     from .inventory.volume import VolumeOptions, volume_run
-    from .io.options import ReadOptions
-    from .io.output import OutputOptions
 
     eq = volume_equation
     if eq is not None and not isinstance(eq, Equation):
         eq = Equation.parse(eq if isinstance(eq, str) else ",".join(map(str, eq)))
+    o = _inventory_options(min_height, returns, dtm, drop_class, keep_class, a_srs, t_srs,
+                           tile_size, workers, overwrite, read_kw)
     return volume_run(input, plots, output, stands=stands, trees_table=trees_table,
                       plot_id=plot_id, plot_radius=plot_radius, stand_id=stand_id,
                       options=VolumeOptions(approach=approach, equation=eq, res=res,
                                             resamples=resamples),
-                      metric=MetricOptions(min_height=min_height, returns=returns),
-                      surface=SurfaceOptions(dtm=dtm, chm="max", fill="none", outliers=False),
-                      read=ReadOptions(a_srs=a_srs, t_srs=t_srs, drop_class=drop_class,
-                                       keep_class=keep_class, **read_kw),
-                      tiling=TilingOptions(tile_size=tile_size, workers=workers),
-                      out=OutputOptions(overwrite=overwrite), progress=progress)
+                      metric=o["metric"], surface=o["surface"], read=o["read"],
+                      tiling=o["tiling"], out=o["out"], progress=progress)

@@ -390,9 +390,8 @@ def classify_gaps(st: dict, points, spacing, dominant_height: float,
         status, share = c["status"], c["share"]
         n = int(drop.sum())
         st["expected"], st["missing"] = st["expected"] - n, st["missing"] - n
-        if "zones" in st:
-            st["zones"] = {k: {**z, "expected": z["expected"] - int((drop & (gz == k)).sum()),
-                               "missing": z["missing"] - int((drop & (gz == k)).sum())}
+        if "zones" in st:  # (their missing counts are counted again below)
+            st["zones"] = {k: {**z, "expected": z["expected"] - int((drop & (gz == k)).sum())}
                            for k, z in st["zones"].items()}
     st["gaps_status"] = status
     st["gaps_share"], st["gaps_returns"] = share, c["returns"]
