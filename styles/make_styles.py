@@ -93,22 +93,19 @@ def graduated(layer, field, symbol_fn, breaks, colors):
     layer.setRenderer(rend)
 
 
-def stands_style(out):
-    """Stands: a blue outline, no fill, labelled with the stand id and its trees per hectare."""
-    from qgis.core import (QgsPalLayerSettings, QgsSingleSymbolRenderer, QgsTextBufferSettings,
-                           QgsTextFormat, QgsVectorLayerSimpleLabeling)
+def label(lyr, expression: str, size: float, colour=None) -> None:
+    """Label ``lyr`` with ``expression`` in ``size`` points (``colour``, QGIS's default else)
+    on a white buffer."""
+    from qgis.core import (QgsPalLayerSettings, QgsTextBufferSettings, QgsTextFormat,
+                           QgsVectorLayerSimpleLabeling)
 
-    lyr = QgsVectorLayer("Polygon?field=stand_id:string&field=trees_per_ha:double", "stands",
-                         "memory")
-    lyr.setRenderer(QgsSingleSymbolRenderer(QgsFillSymbol.createSimple(
-        {"style": "no", "outline_color": "#08519c", "outline_width": "0.8"})))
     pal = QgsPalLayerSettings()
     pal.isExpression = True
-    pal.fieldName = ("\"stand_id\" || '\\n' || format_number(\"trees_per_ha\", 0) || "
-                     "' trees/ha'")
+    pal.fieldName = expression
     fmt = QgsTextFormat()
-    fmt.setColor(QColor("#08519c"))
-    fmt.setSize(10)
+    if colour is not None:
+        fmt.setColor(QColor(colour))
+    fmt.setSize(size)
     buf = QgsTextBufferSettings()
     buf.setEnabled(True)
     buf.setColor(QColor("#ffffff"))
@@ -116,6 +113,18 @@ def stands_style(out):
     pal.setFormat(fmt)
     lyr.setLabeling(QgsVectorLayerSimpleLabeling(pal))
     lyr.setLabelsEnabled(True)
+
+
+def stands_style(out):
+    """Stands: a blue outline, no fill, labelled with the stand id and its trees per hectare."""
+    from qgis.core import QgsSingleSymbolRenderer
+
+    lyr = QgsVectorLayer("Polygon?field=stand_id:string&field=trees_per_ha:double", "stands",
+                         "memory")
+    lyr.setRenderer(QgsSingleSymbolRenderer(QgsFillSymbol.createSimple(
+        {"style": "no", "outline_color": "#08519c", "outline_width": "0.8"})))
+    label(lyr, "\"stand_id\" || '\\n' || format_number(\"trees_per_ha\", 0) || ' trees/ha'",
+          10, "#08519c")
     lyr.saveNamedStyle(str(out))
 
 
@@ -145,29 +154,15 @@ def volume_style(path, out):
 def volume_stands_style(out):
     """Stands of the volume command: filled by volume_m3_ha, labelled with the stand id, its
     volume and the 95 % interval."""
-    from qgis.core import (QgsPalLayerSettings, QgsTextBufferSettings, QgsTextFormat,
-                           QgsVectorLayerSimpleLabeling)
-
     lyr = QgsVectorLayer("Polygon?field=stand_id:string&field=volume_m3_ha:double"
                          "&field=volume_m3_ha_low:double&field=volume_m3_ha_high:double",
                          "stands", "memory")
     graduated(lyr, "volume_m3_ha", lambda c: QgsFillSymbol.createSimple(
         {"color": c, "outline_color": "#252525", "outline_width": "0.6"}), VOLUME_BREAKS,
         VOLUME_COLOURS)
-    pal = QgsPalLayerSettings()
-    pal.isExpression = True
-    pal.fieldName = ("\"stand_id\" || '\\n' || format_number(\"volume_m3_ha\", 0) || ' m³/ha ("
+    label(lyr, ("\"stand_id\" || '\\n' || format_number(\"volume_m3_ha\", 0) || ' m³/ha ("
                      "' || format_number(\"volume_m3_ha_low\", 0) || '-' || "
-                     "format_number(\"volume_m3_ha_high\", 0) || ')'")
-    fmt = QgsTextFormat()
-    fmt.setSize(9)
-    buf = QgsTextBufferSettings()
-    buf.setEnabled(True)
-    buf.setColor(QColor("#ffffff"))
-    fmt.setBuffer(buf)
-    pal.setFormat(fmt)
-    lyr.setLabeling(QgsVectorLayerSimpleLabeling(pal))
-    lyr.setLabelsEnabled(True)
+                     "format_number(\"volume_m3_ha_high\", 0) || ')'"), 9)
     lyr.saveNamedStyle(str(out))
 
 
