@@ -466,7 +466,8 @@ def _refine_direction(dx, dy, a, row0, tree0, n: int = 3000) -> float:
 
 
 def detect_planting(x, y, *, min_trees: int = PLANTING_MIN_TREES,
-                    min_fit: float = PLANTING_MIN_FIT, cell: float = 0.0):
+                    min_fit: float = PLANTING_MIN_FIT, cell: float = 0.0,
+                    spectral: bool = True):
     """The planting lattice under tree tops, if they lie on one, else None.
 
     The row direction is the commonest direction to the two nearest neighbours (1° bins);
@@ -475,6 +476,9 @@ def detect_planting(x, y, *, min_trees: int = PLANTING_MIN_TREES,
     the positions concentrate most; :func:`fit_planting_grid` then fits the lattice. It is
     accepted when at least ``min_trees`` tops give a fit of at least ``min_fit`` and its
     spacings span :data:`MIN_PERIOD_CELLS` of the CHM's cells ``cell`` (m; 0: any).
+    ``spectral``: where the neighbours' directions mislead, look at the positions' spectrum
+    (:func:`~lidartrees_gis.als.spectrum._spectral_guess`, about 0.25 s on 5,000 tops);
+    False gives up there at once (the defaults' look in every tile of a natural forest).
 
     Returns
     -------
@@ -501,6 +505,8 @@ def detect_planting(x, y, *, min_trees: int = PLANTING_MIN_TREES,
     # the neighbours' directions are spread: no rows (a natural forest), or rows the CHM grid
     # or extra tops hide from the neighbours (the positions' spectrum looks)
     spread = x.size > 2 * PRE_FIT_TREES and in_peak.mean() < PLANTING_MIN_SHARE
+    if spread and not spectral:
+        return None
     # ... and the window recentred on that mean until it settles: a peak 8° off (3 x 2 m tops
     # on 0.3 m cells: 11.5° for rows at 20°) leaves the window's mean biased after one step
     for _ in range(MEAN_SHIFT_STEPS):
@@ -524,7 +530,7 @@ def detect_planting(x, y, *, min_trees: int = PLANTING_MIN_TREES,
         g = _detect_from(x, y, dx, dy, np.radians(a0),
                          float(np.median(across[np.isfinite(across)])),
                          float(np.median(along[np.isfinite(along)])), min_fit)
-    if g is None or g.fit < min_fit:
+    if spectral and (g is None or g.fit < min_fit):
         # the neighbours' directions misled (a CHM grid's favoured directions, extra tops
         # between the trees): the positions' spectrum instead
         guess = _spectral_guess(dx, dy, cell)

@@ -89,7 +89,8 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
     spacing, given, added, grid = params.spacing, params.spacing is not None, 0, None
     if not given and params.looks_for_lattice and returns is not None:
         t = result["table"]
-        grid = detect_planting(t["x"], t["y"], cell=spec.res)
+        # the defaults' look, in every tile: no spectral search (natural forests' cost)
+        grid = detect_planting(t["x"], t["y"], cell=spec.res, spectral=False)
         if grid is not None:
             spacing = (grid.row_spacing, grid.tree_spacing)
             result = _planted_separation(result, arr, spec, params, heights, spacing)
