@@ -13,7 +13,7 @@ PKG = ROOT / "lidartrees_gis"
 
 #: the rooms, lowest first; a module may import its own room and the rooms listed for it
 ROOMS = {
-    "core": (),  # errors, progress, crs, grid, tin, _accel, _raster
+    "core": (),  # errors, bounds, progress, crs, grid, tin, _accel, _raster
     "io": ("core",),
     "catalog": ("core", "io"),
     "report": ("core", "io"),
@@ -26,7 +26,7 @@ ROOMS = {
     "top": ("core", "io", "catalog", "report", "ground", "tls", "als", "synthetic",
             "inventory"),
 }
-CORE = {"errors", "progress", "crs", "grid", "tin", "_accel", "_raster", "_version"}
+CORE = {"errors", "bounds", "progress", "crs", "grid", "tin", "_accel", "_raster", "_version"}
 
 
 def _modules():

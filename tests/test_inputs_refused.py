@@ -289,6 +289,36 @@ def test_extreme_options_are_one_line_errors_before_the_run(tmp_path, capsys, cm
     assert [p.name for p in tmp_path.iterdir()] == ["in.las"]
 
 
+@pytest.mark.parametrize("call,words", [
+    ("classify_ground(f, params=KrausPfeifer(cell=1e308))", "-cell: '1e+308' is out of range"),
+    ("classify_ground(f, params=KrausPfeifer(low=float('inf')))", "-low: expected a finite"),
+    ("find_trees(f, tile_size=1e308)", "-tile_size 1e+308 m is over"),
+    ("find_trees(f, params=TreeParams(mean_crown_area=1e308))", "-mean_crown_area: '1e+308'"),
+    ("stem_file(f, p, params=DmaxParams(base='1e308'))", "-base: '1e308' is out of range"),
+    ("profile_file(f, p, sigma=1e-320)", "-sigma: '1e-320' is out of range"),
+    ("metrics(f, min_height=float('nan'))", "-min_height: expected a finite number"),
+])
+def test_the_python_api_bounds_numbers_as_the_command_line_does(tmp_path, call, words):
+    """The same numbers through the Python API were an OverflowError, a ZeroDivisionError or
+    a run: the options' dataclasses now check them as the command line does."""
+    import lidartrees_gis.api as api
+    from lidartrees_gis.als.trees import TreeParams
+    from lidartrees_gis.errors import InputError
+    from lidartrees_gis.ground.filter import KrausPfeifer
+    from lidartrees_gis.tls.chain import profile_file, stem_file
+    from lidartrees_gis.tls.stem import DmaxParams
+
+    f, p = _cloud(tmp_path / "in.las"), tmp_path / "out"
+    names = {"classify_ground": api.classify_ground, "find_trees": api.find_trees,
+             "metrics": api.metrics, "stem_file": stem_file, "profile_file": profile_file,
+             "KrausPfeifer": KrausPfeifer, "TreeParams": TreeParams, "DmaxParams": DmaxParams,
+             "f": f, "p": p}
+    with pytest.raises(InputError) as e:
+        eval(call, names)
+    assert words in str(e.value) and "\n" not in str(e.value)
+    assert [q.name for q in tmp_path.iterdir()] == ["in.las"]
+
+
 def test_good_creation_options_and_numbers_still_run(tmp_path, capsys):
     import rasterio
 

@@ -8,6 +8,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from .tops import adaptive_maxima, local_maxima, treex_maxima, variable_window_maxima
+from ..bounds import check_fields
 from ..errors import InputError
 from ..grid import GridSpec
 from .metrics import tree_table
@@ -154,6 +155,11 @@ class TreeParams:
     window_corner: tuple | None = None
 
     def __post_init__(self):
+        check_fields(self, {**dict.fromkeys(("min_height", "step", "min_crown_height", "crown_scale",
+                                             "dominant_height", "min_separation", "top_height"),
+                                            "m"),
+                            **dict.fromkeys(("mean_crown_area", "sd_crown_area",
+                                             "max_crown_area"), "m²")})
         if self.method not in METHODS:
             raise InputError(f"-method: unknown method {self.method!r}; use {', '.join(METHODS)}")
         if self.smooth in (None, ""):  # the seed methods work on the raw surface

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..crs import check_coordinates, crs_label
+from ..bounds import check_fields
 from ..errors import CRSError, InputError
 from ..io.options import ReadOptions
 from .inputs import ept_crs, expand_inputs, is_ept
@@ -221,6 +222,7 @@ class TilingOptions:
     resume: bool = False
 
     def __post_init__(self):
+        check_fields(self, {"buffer": "m"}, skip=("tile_size",))  # tile_size: inf = one tile
         ts = self.tile_size
         if isinstance(ts, str):
             low = ts.strip().lower()

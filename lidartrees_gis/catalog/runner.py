@@ -80,7 +80,11 @@ def _client(workers, scheduler):
         # result and is told in one line (TileError)
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                dashboard_address=None, silence_logs=logging.CRITICAL)
-    return Client(cluster), cluster
+    client = Client(cluster)
+    from ._watch import ParentWatch
+
+    client.register_plugin(ParentWatch(os.getpid()), name="lidartrees-parent-watch")
+    return client, cluster
 
 
 def _quiet_logs():

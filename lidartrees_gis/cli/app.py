@@ -169,21 +169,11 @@ def _join_dash_values(argv, ap):
     return out
 
 
-#: the sizes a number option may take, by unit: (largest, smallest other than 0), the gross
-#: limits past which numbers overflow or grids and kernels exhaust memory (each option's own
-#: check then says its useful range). Metres: no size is over 10,000 km or under a micrometre;
-#: a count or factor is at most a billion
-NUMBER_BOUNDS = {"m": (1e7, 1e-6), "m²": (1e12, 1e-10), "": (1e9, 1e-9)}
-#: options with limits of their own: -step's own check says how many passes a tiny step makes
-NUMBER_LIMITS = {"step": (1e5, 1e-12)}
-#: text options that take a number in metres or a word (auto, none)
-NUMBER_OR_WORD = {"tile_size": "m", "base": "m"}
-
-
 def check_numbers(cmd, kw) -> None:
     """Every number option of ``cmd`` in ``kw`` checked before the run, in one place: finite,
-    and within :data:`NUMBER_BOUNDS` for its unit; a one-line error naming the option."""
-    from ..errors import InputError
+    and within :data:`~lidartrees_gis.bounds.NUMBER_BOUNDS` for its unit; a one-line error
+    naming the option."""
+    from ..bounds import NUMBER_OR_WORD, check_number
 
     for p in cmd.params:
         # (-tr is checked by grid.check_resolution, for the API too)
@@ -192,24 +182,14 @@ def check_numbers(cmd, kw) -> None:
         v = kw.get(p.name)
         if unit is None or v is None or isinstance(v, bool) or str(v).strip() == "":
             continue
-        text = str(v).strip()
-        if text.lower() in ("auto", "none"):
-            continue
-        try:
-            f = float(text)
-        except ValueError:
-            if p.kind in ("float", "int"):
-                raise InputError(f"{p.flag}: expected a number, got {text!r}") from None
-            continue  # another form the option parses (e.g. a range)
-        hi, lo = NUMBER_BOUNDS.get(unit, NUMBER_BOUNDS[""])
-        what = f"{p.flag}: {text!r}"
-        if not math.isfinite(f):
-            hint = "; give none for one tile" if p.name == "tile_size" else ""
-            raise InputError(f"{p.flag}: expected a finite number, got {text!r}{hint}")
-        hi, lo = NUMBER_LIMITS.get(p.name, (hi, lo))
-        if abs(f) > hi or 0 < abs(f) < lo:
-            raise InputError(f"{what} is out of range: give a size between {lo:g} and {hi:g}"
-                             f"{' ' + unit if unit else ''} (or 0 where the option allows it)")
+        if p.kind in ("float", "int") and isinstance(v, str):
+            try:
+                float(v)
+            except ValueError:
+                from ..errors import InputError
+
+                raise InputError(f"{p.flag}: expected a number, got {v.strip()!r}") from None
+        check_number(p.flag, v, unit, p.name)
 
 
 def main(argv=None) -> int:

@@ -46,6 +46,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from ..bounds import check_fields
 from ..errors import InputError
 from ..grid import GridSpec, check_sparse, fill_mean8
 from ..progress import as_progress, check_cancel
@@ -74,6 +75,7 @@ class KrausPfeifer:
     gshift: bool = False
 
     def __post_init__(self):
+        check_fields(self, dict.fromkeys(("g", "w", "cell", "tolerance", "tin_cell", "low"), "m"))
         if not self.w > 0:
             raise InputError(f"-w must be > 0, got {self.w}")
         if not (self.a > 0 and self.b > 0):

@@ -20,6 +20,7 @@ from ..als.chain import check_failed, run_tiles, runner_for
 from ..als.surfaces import ON_GROUND, SurfaceOptions, bilinear, box_surfaces
 from ..catalog.catalog import TilingOptions, make_tiles
 from ..catalog.source import TileSource
+from ..bounds import check_fields
 from ..errors import InputError
 from ..grid import GridSpec
 from ..progress import SubProgress, as_progress
@@ -43,6 +44,7 @@ class MetricOptions:
     returns: str = "all"
 
     def __post_init__(self):
+        check_fields(self, {"min_height": "m"})
         if self.returns not in RETURNS:
             raise InputError(f"-returns: expected all or first, got {self.returns!r}")
         if self.min_height is not None and not math.isfinite(self.min_height):

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..catalog.catalog import TilingOptions
+from ..bounds import check_fields
 from ..errors import InputError
 from ..io.names import normalise
 from ..io.options import ReadOptions
@@ -61,6 +62,7 @@ class VolumeOptions:
     seed: int = 0
 
     def __post_init__(self):
+        check_fields(self, {"res": "m"}, skip=("seed",))
         if self.approach not in APPROACHES:
             raise InputError(f"-approach: expected aba, trees or both, got {self.approach!r}")
         if not (isinstance(self.res, str) and self.res == "auto"):

@@ -31,6 +31,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
+from ..bounds import check_number
 from ..errors import InputError
 
 ROOTS, STEM, CANOPY = 1, 2, 3
@@ -73,6 +74,8 @@ MAX_BINS = 2_000_000
 def density_profile(z, *, bin: float = 0.05, sigma: float = 0.3):  # noqa: A002 - seed's name
     """Counts per slice, smoothed counts and second derivative. Returns a dict with ``z`` (slice
     centres above z_min), ``counts``, ``smooth``, ``d2``."""
+    check_number("-bin", bin, "m")
+    check_number("-sigma", sigma, "m")
     if not 0 < bin <= 5:
         raise InputError(f"-bin must be > 0 and <= 5 m, got {bin}")
     if not 0 < sigma <= 10:

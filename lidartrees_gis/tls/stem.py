@@ -42,6 +42,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from ..bounds import check_fields
 from ..errors import InputError
 from ..progress import as_progress, check_cancel
 from .circle import Circle, fit_circle, min_std_centre
@@ -65,6 +66,8 @@ class DmaxParams:
     max_iter: int = 50
 
     def __post_init__(self):
+        check_fields(self, dict.fromkeys(("section", "search", "hspacing", "vspacing", "base",
+                                          "start", "max_jump", "max_spread"), "m"))
         for name in ("section", "search", "hspacing", "vspacing"):
             v = getattr(self, name)
             if not (v > 0 and np.isfinite(v)):
