@@ -50,8 +50,10 @@ class GridSpec:
     crs: object = None
 
     @classmethod
-    def from_bounds(cls, xmin, ymin, xmax, ymax, res, crs=None) -> "GridSpec":
-        """Smallest grid aligned to multiples of ``res`` that holds every point in the bounds."""
+    def from_bounds(cls, xmin, ymin, xmax, ymax, res, crs=None, *,
+                    closed_top: bool = False) -> "GridSpec":
+        """Smallest grid aligned to multiples of ``res`` that holds every point in the bounds
+        (``closed_top``: as :meth:`cell_index` with ``closed_top`` places them)."""
         res = check_resolution(res)
         vals = (xmin, ymin, xmax, ymax)
         if not all(np.isfinite(v) for v in vals) or xmax < xmin or ymax < ymin:
@@ -59,8 +61,12 @@ class GridSpec:
         inv = 1.0 / res  # the arithmetic of cell_index and of the compiled kernel
         c0 = math.floor(xmin * inv + EDGE_EPS)
         c1 = math.floor(xmax * inv + EDGE_EPS)
-        r0 = math.floor(ymin * inv + EDGE_EPS)
-        r1 = math.floor(ymax * inv + EDGE_EPS)
+        if closed_top:
+            r0 = math.ceil(ymin * inv - EDGE_EPS) - 1
+            r1 = math.ceil(ymax * inv - EDGE_EPS) - 1
+        else:
+            r0 = math.floor(ymin * inv + EDGE_EPS)
+            r1 = math.floor(ymax * inv + EDGE_EPS)
         width, height = c1 - c0 + 1, r1 - r0 + 1
         if width * height > 2_000_000_000:
             raise InputError(f"-tr: {res} m gives a {width} x {height} grid; use a larger resolution")
@@ -96,13 +102,15 @@ class GridSpec:
             return float(round(c)), float(round(r))
         return None
 
-    def cell_index(self, x, y):
+    def cell_index(self, x, y, *, closed_top: bool = False):
         """Row and column of each point (may fall outside ``[0, height) x [0, width)``).
 
         A point's cell is that of the global grid (``floor(x / res)``), so a point gets the
         same cell in every grid that holds it: the grid of a tile and of the whole area agree
         even for points on cell edges (``floor(x * (1 / res))``, the arithmetic of
-        :meth:`from_bounds` and of the compiled kernel)."""
+        :meth:`from_bounds` and of the compiled kernel). ``closed_top``: a point on a row
+        edge belongs to the row below it (rows counted from the top, as lidR's and terra's
+        ``cellFromXY`` count them) instead of the row above."""
         o = self.origin_cells()
         x, y = np.asarray(x), np.asarray(y)
         if o is None:  # a grid off the global lattice: from its own corner
@@ -111,7 +119,10 @@ class GridSpec:
             y = y - (self.top - self.height * self.res)
         inv = 1.0 / self.res
         col = (np.floor(x * inv + EDGE_EPS) - o[0]).astype(np.int64)
-        row = (self.height - 1) - (np.floor(y * inv + EDGE_EPS) - o[1]).astype(np.int64)
+        if closed_top:
+            row = (self.height - 1) - (np.ceil(y * inv - EDGE_EPS) - 1 - o[1]).astype(np.int64)
+        else:
+            row = (self.height - 1) - (np.floor(y * inv + EDGE_EPS) - o[1]).astype(np.int64)
         return row, col
 
     def xy(self, row, col):

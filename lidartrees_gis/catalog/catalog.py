@@ -271,10 +271,14 @@ class Tile:
     core: tuple
     box: tuple
 
-    def in_core(self, x, y):
+    def in_core(self, x, y, *, closed_top: bool = False):
+        """Points in the core ``[x0, x1) x [y0, y1)``; ``closed_top``: ``(y0, y1]`` (a point on
+        a row edge in the row below, see :meth:`GridSpec.cell_index`)."""
         x0, y0, x1, y1 = self.core
         x = np.asarray(x)
         y = np.asarray(y)
+        if closed_top:
+            return (x >= x0) & (x < x1) & (y > y0) & (y <= y1)
         return (x >= x0) & (x < x1) & (y >= y0) & (y < y1)
 
 

@@ -81,7 +81,8 @@ def tile_heights(tile, area, plan, surface: SurfaceOptions, task: HeightTask, su
         return out
     src = TileSource(area, tile.box)
     pts = src.read_all()
-    core = tile.in_core(pts.x, pts.y)
+    # cells as lidR's pixel_metrics makes them: a return on a row edge in the row below
+    core = tile.in_core(pts.x, pts.y, closed_top=True)
     x, y = pts.x[core], pts.y[core]
     hag = pts.z[core] - bilinear(s["dtm"], s["spec"], x, y)
     hag[np.abs(hag) < ON_GROUND] = 0.0
@@ -90,7 +91,7 @@ def tile_heights(tile, area, plan, surface: SurfaceOptions, task: HeightTask, su
     if x.size == 0:
         return out
     if task.cells is not None:
-        row, col = task.cells.cell_index(x, y)
+        row, col = task.cells.cell_index(x, y, closed_top=True)
         r0, r1, c0, c1 = _cell_window(task.cells, row, col)
         w = c1 - c0
         m = task.options.compute(hag, (row - r0) * w + (col - c0), (r1 - r0) * w, first)
@@ -129,7 +130,7 @@ def area_metrics(area, *, cells_res=None, zones=(), options: MetricOptions | Non
     tiling = tiling or TilingOptions()
     prog = as_progress(progress)
     cells = None if cells_res is None else GridSpec.from_bounds(*area.extent, cells_res,
-                                                                crs=area.crs)
+                                                                crs=area.crs, closed_top=True)
     grid = None if cells is None else np.full((len(METRICS), *cells.shape), np.nan, np.float32)
     gathered = [[] for _ in zones]
     points = 0
