@@ -134,3 +134,28 @@ def test_tops_scatter_around_their_planting_positions(scatter):
         assert d.max() < 1e-9
     else:
         assert 0.1 < np.median(d) < 0.6 and d.max() < 1.6
+
+
+def test_a_closed_stand_gets_its_lattice_from_the_canopy_where_the_tops_show_none(tmp_path,
+                                                                                 monkeypatch):
+    """A 6-year 3 x 2 m stand of closed crowns (1.5 ha, 8 pts/m²): the tops of neighbours in a
+    row merge, so ``-spacing auto`` found no lattice under them ("no rows of one direction and
+    spacing"); the canopy heights' spectrum finds it (to 0.05 m and 1°) and the stocking comes
+    within 3 points of the truth."""
+    import lidartrees_gis.als.canopy_lattice as canopy_lattice
+    from lidartrees_gis import api as lt
+    from lidartrees_gis.als.trees import TreeParams
+
+    cfg = fam._cfg("closed", [fam._stand((3, 2), 20, 1.5, crown_k=fam.CLOSED)], slope=0.08)
+    pts, truth = fam.make_stand(cfg, 1)
+    las, stands = tmp_path / "c.las", tmp_path / "c.gpkg"
+    fam.write_las(pts, las)
+    fam.write_stands(truth, stands)
+    params = TreeParams(spacing="auto")
+    st = lt.find_trees(las, params=params, stands=stands)[2]["stands"].iloc[0]
+    assert st["lattice"] == "found" and st["spacing"] == "3x2"
+    assert abs((st["row_azimuth"] - 20.0 + 90.0) % 180.0 - 90.0) <= 1.0
+    assert abs(st["stocking_pct"] - truth["stands"][0]["stocking_pct"]) <= 3.0
+    monkeypatch.setattr(canopy_lattice, "canopy_planting", lambda *a, **k: None)
+    st = lt.find_trees(las, params=params, stands=stands)[2]["stands"].iloc[0]
+    assert st["lattice"].startswith("no planting lattice")

@@ -110,3 +110,66 @@ def test_random_trees_have_no_spectral_lattice():
     for n, side in ((300, 60.0), (2000, 200.0), (8000, 400.0)):
         x, y = rng.uniform(0, side, n), rng.uniform(0, side, n)
         assert _spectral_guess(x - x.mean(), y - y.mean()) is None
+
+
+def _canopy(px, py, radius, size=120.0, res=0.35, seed=0):
+    """A CHM of paraboloid crowns of ``radius`` (m) at ``px, py`` (the highest wins), 20-25 m
+    tall, on a ``size`` m square of ``res`` m cells."""
+    rng = np.random.default_rng(seed)
+    n = int(size / res)
+    gx = (np.arange(n) + 0.5) * res
+    gy = size - (np.arange(n) + 0.5) * res
+    X, Y = np.meshgrid(gx, gy)
+    chm = np.full((n, n), 1.0)
+    h = rng.uniform(20, 25, px.size)
+    r = radius * rng.uniform(0.85, 1.15, px.size)
+    for x0, y0, h0, r0 in zip(px, py, h, r):
+        c0, c1 = max(int((x0 - r0) / res), 0), min(int((x0 + r0) / res) + 1, n)
+        r_0, r_1 = max(int((size - y0 - r0) / res), 0), min(int((size - y0 + r0) / res) + 1, n)
+        if c0 >= c1 or r_0 >= r_1:
+            continue
+        d2 = (X[r_0:r_1, c0:c1] - x0) ** 2 + (Y[r_0:r_1, c0:c1] - y0) ** 2
+        z = h0 - 6.0 * d2 / r0 ** 2
+        chm[r_0:r_1, c0:c1] = np.maximum(chm[r_0:r_1, c0:c1], np.where(d2 <= r0 ** 2, z, 1.0))
+    return chm, res
+
+
+def _lattice(rs, ts, az_deg, size=120.0, missing=0.1, seed=0):
+    rng = np.random.default_rng(seed)
+    a = np.radians(az_deg)
+    u, v = np.array([np.sin(a), np.cos(a)]), np.array([np.cos(a), -np.sin(a)])
+    i, j = np.meshgrid(np.arange(-120, 121), np.arange(-80, 81))
+    p = size / 2 + i.ravel()[:, None] * ts * u + j.ravel()[:, None] * rs * v
+    p = p[(p[:, 0] > 0) & (p[:, 0] < size) & (p[:, 1] > 0) & (p[:, 1] < size)]
+    p = p[rng.random(len(p)) >= missing]
+    p = p + rng.normal(0, 0.08, p.shape)
+    return p[:, 0], p[:, 1]
+
+
+@pytest.mark.parametrize("rs,ts,az", [(3.0, 2.0, 20.0), (3.0, 1.5, 130.0), (2.8, 2.8, 75.0)])
+def test_a_closed_canopy_shows_its_lattice_in_its_spectrum(rs, ts, az):
+    """Crowns wider than the plant spacing (a closed canopy, where the tops of neighbours in a
+    row merge): the canopy heights' spectrum still holds the lattice, to 0.02 m and 0.5°."""
+    from lidartrees_gis.als.canopy_lattice import canopy_lattice_guess, canopy_spectrum
+
+    x, y = _lattice(rs, ts, az)
+    chm, res = _canopy(x, y, radius=1.15 * np.sqrt(rs * ts) / 2)  # _family2's closed crowns
+    g = canopy_lattice_guess(canopy_spectrum(chm, res), res)
+    assert g is not None
+    a, row, tree = g
+    if rs == ts:  # a square lattice: either axis is a row
+        assert abs((np.degrees(a) - az + 45.0) % 90.0 - 45.0) <= 0.5
+    else:
+        assert abs((np.degrees(a) - az + 90.0) % 180.0 - 90.0) <= 0.5
+    assert abs(row - rs) <= 0.02 and abs(tree - ts) <= 0.02
+
+
+def test_a_canopy_without_rows_has_no_spectral_lattice():
+    """The same crowns at random positions (as many, as wide): no lattice, in 5 draws."""
+    from lidartrees_gis.als.canopy_lattice import canopy_lattice_guess, canopy_spectrum
+
+    for seed in range(5):
+        rng = np.random.default_rng(seed)
+        n = int(120 * 120 / 6.0)
+        chm, res = _canopy(rng.uniform(0, 120, n), rng.uniform(0, 120, n), 1.9, seed=seed)
+        assert canopy_lattice_guess(canopy_spectrum(chm, res), res) is None

@@ -329,10 +329,18 @@ def _area_grids(runner, area, p: TreeParams, plan: AreaPlan, surface, stands, pr
         return {"all": None}
     x, y, z = (np.concatenate([np.asarray(r[k]) for r in found]) for k in ("x", "y", "zone"))
     from .positions import add_anchors
-    from .tile import number_regions
+    from .tile import number_regions, tile_canopy_spectra
+
+    def spectra(keys):  # -spacing auto, stands whose tops show no lattice: their canopies
+        total = {}
+        for r in runner.map(tile_canopy_spectra, list(plan.tiles),
+                            (area, p, plan, surface, stands, list(keys)), label="lattice tile"):
+            for k, v in r.items():
+                total[k] = total[k] + v if k in total else v
+        return total
 
     grids = fit_stand_grids(x, y, z if stands is not None else None, p.spacing, whole=True,
-                            cell=plan.res)
+                            cell=plan.res, spectra=spectra)
     # where each stand's row and plant numbers start: made once here, for every tile
     zones = [-1] + ([] if stands is None else list(range(len(stands))))
     return add_anchors(grids, number_regions(stands, area.extent), plan.res, zones)

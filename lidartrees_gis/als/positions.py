@@ -35,7 +35,7 @@ def _canonical(tx, ty):
 
 
 def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None = None, *,
-                    zones=None, whole: bool = False, cell: float = 0.0) -> dict:
+                    zones=None, whole: bool = False, cell: float = 0.0, spectra=None) -> dict:
     """The planting lattice of every stand: ``{zone: PlantingGrid or None}``, and ``"all"``
     (the lattice of all the tops: that of an area without stands, and of a stand with too few
     tops of its own) where one needs it or ``whole`` asks for it.
@@ -49,8 +49,14 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
     of their own (:func:`_canonical`), so a whole area's tops and the same tops gathered from
     its tiles give the same lattices: a run in tiles fits each stand once, from all its tiles'
     tops, and every tile counts its positions on that lattice. ``cell``: the CHM's cell size
-    (see :func:`~lidartrees_gis.als.stocking.detect_planting`).
+    (see :func:`~lidartrees_gis.als.stocking.detect_planting`). ``spectra``: with
+    ``spacing="auto"``, a function that gives ``{key: canopy spectrum}``
+    (:func:`~lidartrees_gis.als.canopy_lattice.canopy_spectrum`) for a list of keys (stand indices,
+    ``"all"``): a stand whose tops show no lattice (a closed canopy, where the tops of
+    neighbours merge) is given the lattice of its canopy's spectrum
+    (:func:`~lidartrees_gis.als.canopy_lattice.canopy_planting`) when there is one.
     """
+    from .canopy_lattice import canopy_planting
     from .stocking import PLANTING_MIN_TREES, detect_planting
 
     tx, ty = np.asarray(top_x, float), np.asarray(top_y, float)
@@ -58,13 +64,38 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
     tx, ty = tx[o], ty[o]
     auto = isinstance(spacing, str)
     out = {}
+    zone = None if top_zone is None else np.asarray(top_zone)[o]
+    keys = [] if zone is None else [int(k) for k in (np.unique(zone) if zones is None
+                                                     else zones)]
+
+    def tops_of(k):
+        return (tx, ty) if k == "all" else (tx[zone == k], ty[zone == k])
 
     def fit(x, y):
         return detect_planting(x, y, cell=cell) if auto else fit_planting_grid(x, y, *spacing)
 
+    def enough(k):
+        return tops_of(k)[0].size >= (PLANTING_MIN_TREES if auto else STAND_FIT_MIN_TOPS)
+
+    own = {}
+    if top_zone is None or whole or grid is not None:
+        own["all"] = grid if grid is not None else fit(tx, ty)
+    for k in keys:
+        own[k] = fit(*tops_of(k)) if enough(k) else None
+    if auto and spectra is not None:
+        # where the tops show no lattice: the canopy's spectrum (one more pass for them only)
+        lost = [k for k, g in own.items() if g is None and tops_of(k)[0].size >= 10]
+        if lost:
+            powers = spectra(lost)
+            for k in lost:
+                if powers.get(k) is not None:
+                    own[k] = canopy_planting(*tops_of(k), powers[k], cell)
+
     def all_tops():
         if "all" not in out:
-            out["all"] = grid if grid is not None else fit(tx, ty)
+            if "all" not in own:
+                own["all"] = fit(tx, ty)
+            out["all"] = own["all"]
             if out["all"] is not None:
                 out[("span", "all")] = row_spans(out["all"], tx, ty)
         return out["all"]
@@ -73,14 +104,10 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
         all_tops()
     if top_zone is None:
         return out
-    zone = np.asarray(top_zone)[o]
-    for k in (np.unique(zone) if zones is None else zones):
-        own = zone == k
-        enough = own.sum() >= (PLANTING_MIN_TREES if auto else STAND_FIT_MIN_TOPS)
-        g = fit(tx[own], ty[own]) if enough else None
-        out[int(k)] = g if g is not None else all_tops()
-        if out[int(k)] is not None:
-            out[("span", int(k))] = row_spans(out[int(k)], tx[own], ty[own])
+    for k in keys:
+        out[k] = own[k] if own[k] is not None else all_tops()
+        if out[k] is not None:
+            out[("span", k)] = row_spans(out[k], *tops_of(k))
     return out
 
 
@@ -199,8 +226,15 @@ def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: flo
     a = np.asarray(chm, float)
     present = np.unique(zone[np.isfinite(a) & (a >= min_height)]).tolist()
     if grids is None:
+        def spectra(keys):  # -spacing auto: the canopies of the stands whose tops show none
+            from .canopy_lattice import canopy_spectrum
+
+            return {k: canopy_spectrum(a, spec.res, None if k == "all" else zone == k)
+                    for k in keys}
+
         grids = fit_stand_grids(tx, ty, top_zone if zoned else None, spacing, grid,
-                                zones=present if zoned else None, cell=spec.res)
+                                zones=present if zoned else None, cell=spec.res,
+                                spectra=spectra)
     if regions:
         add_anchors(grids, regions, spec.res, present)
     masks = {}

@@ -67,3 +67,4 @@ def _spectral_guess(dx, dy, cell: float = 0.0):
     if p2 <= p1:  # the rows run along the shorter period
         return t2 % np.pi, p1, p2
     return t1 % np.pi, p2, p1
+

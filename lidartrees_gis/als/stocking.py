@@ -96,7 +96,8 @@ PLANTING_MIN_SHARE = 0.25
 PERIOD_TREES = 5000
 
 
-def fit_planting_grid(x, y, row_spacing: float, tree_spacing: float) -> PlantingGrid:
+def fit_planting_grid(x, y, row_spacing: float, tree_spacing: float, *,
+                      azimuths=None) -> PlantingGrid:
     """Row direction and lattice offset that best fit the tree positions ``x, y``.
 
     Every azimuth from 0 to 180° (0.5° steps, then 0.05° around the best) is scored by the
@@ -111,6 +112,9 @@ def fit_planting_grid(x, y, row_spacing: float, tree_spacing: float) -> Planting
         Tree positions (map units, m); at least 10.
     row_spacing, tree_spacing : float
         Distance between rows and between trees in a row (m).
+    azimuths : array_like, optional
+        The coarse azimuths (degrees) to score, when the row direction is known roughly
+        (default: 0 to 180° in 0.5° steps).
     """
     x = np.asarray(x, float)
     y = np.asarray(y, float)
@@ -136,7 +140,7 @@ def fit_planting_grid(x, y, row_spacing: float, tree_spacing: float) -> Planting
                 o.append(v)
         return tuple(np.concatenate(o) for o in out)
 
-    coarse = np.arange(0.0, 180.0, 0.5)
+    coarse = np.arange(0.0, 180.0, 0.5) if azimuths is None else np.asarray(azimuths, float)
     s, _, _ = score(coarse)
     best = float(coarse[int(np.argmax(s))])
     fine = best + np.arange(-0.5, 0.5001, 0.05)

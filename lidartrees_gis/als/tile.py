@@ -181,6 +181,35 @@ def tile_first_tops(tile: Tile, area, params: TreeParams, plan: AreaPlan,
     return {"x": x, "y": y, "zone": z}
 
 
+def tile_canopy_spectra(tile: Tile, area, params: TreeParams, plan: AreaPlan,
+                        surface: SurfaceOptions, stands=None, keys=(), progress=None) -> dict:
+    """``-spacing auto``'s second look at the stands whose tops show no lattice: the tile's
+    canopy spectrum (:func:`lidartrees_gis.als.canopy_lattice.canopy_spectrum`) over each stand of
+    ``keys`` (stand indices; ``"all"``: the whole tile), ``{key: power}``; the stands' spectra
+    are the sums over their tiles. Reads the surfaces :func:`tile_first_tops` kept, else makes
+    them again."""
+    from ..catalog.source import shared_cache
+    from .canopy_lattice import canopy_spectrum
+    from .stands import zones
+
+    cache = shared_cache()
+    s = None
+    if cache is not None:
+        s = cache.get(_surfaces_key(tile, plan, params), keep=True)
+    if not (isinstance(s, dict) and "chm" in s):
+        s = box_surfaces(area, tile.box, plan.res, surface, stats=plan.stats, whole_dtm=False,
+                         progress=progress)
+    if s is None:
+        return {}
+    zone = zones(stands, s["spec"]) if stands is not None else None
+    out = {}
+    for k in keys:
+        mask = None if k == "all" or zone is None else zone == k
+        if mask is None or mask.any():
+            out[k] = canopy_spectrum(s["chm"], s["spec"].res, mask)
+    return out
+
+
 def _surfaces_key(tile: Tile, plan: AreaPlan, params: TreeParams) -> tuple:
     return ("tile surfaces", tuple(map(float, tile.box)), float(plan.res),
             bool(params.looks_at_planting))

@@ -1,0 +1,177 @@
+"""A planting lattice from the canopy heights' spectrum, where the tops of a closed canopy
+show none (:func:`canopy_planting`, for :func:`lidartrees_gis.als.positions.fit_stand_grids`
+with ``-spacing auto``)."""
+from __future__ import annotations
+
+import numpy as np
+
+from .spectrum import MIN_PERIOD_CELLS, SPECTRAL_PERIODS
+from .stocking import _sample, _spacing_along, fit_planting_grid
+
+
+#: :func:`canopy_spectrum`'s polar grid: directions (0.5° steps) ...
+CANOPY_THETAS = np.radians(np.arange(0.0, 180.0, 0.5))
+#: ... and frequencies (cycles per metre) of the planting periods of :data:`SPECTRAL_PERIODS`
+CANOPY_FREQS = np.arange(1.0 / SPECTRAL_PERIODS[1], 1.0 / SPECTRAL_PERIODS[0], 0.0025)
+#: a canopy spectrum's first axis must beat what a canopy without rows reaches with this
+#: chance; the second, searched only at right angles to the first (within 1°), this one (a
+#: canopy without rows passes both with a chance below 1e-8)
+CANOPY_CHANCE = (1e-6, 1e-2)
+#: variations of the canopy height longer than this (m) are left out (stand edges, roads)
+CANOPY_HIGHPASS = 10.0
+#: the heights are tapered to 0 over about this (m) at the edges of the stand and the data
+CANOPY_TAPER = 2.0
+
+
+def canopy_spectrum(chm, res: float, mask=None) -> np.ndarray:
+    """Power of the canopy heights' variations on the polar grid (:data:`CANOPY_THETAS` x
+    :data:`CANOPY_FREQS`): direction ``theta`` (azimuth of the wave vector, clockwise from
+    north) and frequency ``f``. The heights (NaN and the cells outside ``mask`` at their mean)
+    lose their variations longer than :data:`CANOPY_HIGHPASS` and are tapered by a Hann
+    window; tiles' spectra of one stand add up (an averaged periodogram).
+
+    A planting lattice is periodic in the canopy even where the crowns close and the tops
+    cannot be told apart: the row spacing across the rows, the plant spacing along them."""
+    from scipy import ndimage
+
+    a = np.asarray(chm, float)
+    valid = np.isfinite(a) if mask is None else np.isfinite(a) & np.asarray(mask, bool)
+    out = np.zeros((CANOPY_THETAS.size, CANOPY_FREQS.size))
+    if valid.sum() < 64:
+        return out
+    fill = np.where(valid, a, float(a[valid].mean()))
+    hp = fill - ndimage.gaussian_filter(fill, CANOPY_HIGHPASS / res, mode="nearest")
+    hp = np.where(valid, hp - hp[valid].mean(), 0.0)
+    H, W = hp.shape
+    # tapered at the stand's (and the data's) edges too, over a few metres: a cut edge's steps
+    # would spread their power over every frequency
+    taper = ndimage.gaussian_filter(valid.astype(float), CANOPY_TAPER / res, mode="constant")
+    hp *= np.where(valid, taper, 0.0) * np.outer(np.hanning(H), np.hanning(W))
+    sh, sw = 2 * H, 2 * W
+    power = np.fft.fftshift(np.abs(np.fft.fft2(hp, s=(sh, sw))) ** 2)
+    T, F = np.meshgrid(CANOPY_THETAS, CANOPY_FREQS, indexing="ij")
+    # a wave vector (east, north) = f (sin t, cos t); the grid's rows run southwards
+    rows = sh // 2 - F * np.cos(T) * sh * res
+    cols = sw // 2 + F * np.sin(T) * sw * res
+    inside = (rows >= 0) & (rows <= sh - 1) & (cols >= 0) & (cols <= sw - 1)
+    out[inside] = ndimage.map_coordinates(power, [rows[inside], cols[inside]], order=1)
+    return out
+
+
+def canopy_lattice_guess(power, cell: float = 0.0):
+    """Row direction (radians, as :func:`_spectral_guess`) and the periods across and along
+    the rows from a :func:`canopy_spectrum` (summed over a stand's tiles), or None when the
+    canopy is not periodic beyond chance on two axes at right angles.
+
+    Each frequency's powers are divided by their median over the directions (a canopy without
+    rows spreads its power evenly over them; a periodogram's values then fall off as
+    ``exp(-r ln 2)``); the strongest peak must pass the level that the grid's
+    directions x frequencies reach with chance :data:`CANOPY_CHANCE`'s first, the strongest at
+    right angles to it (within 1°) the second's. ``cell``: periods shorter than
+    :data:`MIN_PERIOD_CELLS` cells are not looked at."""
+    p = np.asarray(power, float)
+    keep = CANOPY_FREQS <= 1.0 / max(SPECTRAL_PERIODS[0], MIN_PERIOD_CELLS * cell)
+    if not keep.any() or not p.any():
+        return None
+    p = p[:, keep]
+    freqs = CANOPY_FREQS[keep]
+    med = np.median(p, axis=0)
+    r = p / np.where(med > 0, med, np.inf)[None, :]
+    n_t = CANOPY_THETAS.size
+    level1 = np.log(r.size / CANOPY_CHANCE[0]) / np.log(2.0)
+    i, j = np.unravel_index(int(np.argmax(r)), r.shape)
+    if r[i, j] < level1:
+        return None
+    perp = (i + n_t // 2 + np.arange(-2, 3)) % n_t
+    sub = r[perp]
+    level2 = np.log(sub.size / CANOPY_CHANCE[1]) / np.log(2.0)
+    i2, j2 = np.unravel_index(int(np.argmax(sub)), sub.shape)
+    if sub[i2, j2] < level2:
+        return None
+
+    def vector(t, k):  # a peak's wave vector (east, north), its frequency refined
+        row = r[t]
+        shift = 0.0
+        if 0 < k < row.size - 1:
+            a, b, c = row[k - 1], row[k], row[k + 1]
+            den = a - 2 * b + c
+            shift = float(np.clip(0.5 * (a - c) / den, -0.5, 0.5)) if den < 0 else 0.0
+        f = freqs[k] + shift * (freqs[1] - freqs[0])
+        return f * np.array([np.sin(CANOPY_THETAS[t]), np.cos(CANOPY_THETAS[t])])
+
+    def peak_at(v):  # the polar cell of a wave vector, when it is a peak beyond chance
+        v = v if v[1] > 0 or (v[1] == 0 and v[0] >= 0) else -v
+        f = float(np.hypot(*v))
+        if not freqs[0] <= f <= freqs[-1]:
+            return None
+        t = int(round(np.degrees(np.arctan2(v[0], v[1])) / 0.5)) % n_t
+        k = int(round((f - freqs[0]) / (freqs[1] - freqs[0])))
+        ts, ks = (t + np.arange(-1, 2)) % n_t, np.clip(k + np.arange(-1, 2), 0, freqs.size - 1)
+        sub = r[np.ix_(ts, ks)]
+        a, b = np.unravel_index(int(np.argmax(sub)), sub.shape)
+        return (int(ts[a]), int(ks[b])) if sub[a, b] >= level3 else None
+
+    # the strongest peaks may be a harmonic (crowns flat between their tops) or the lattice's
+    # diagonals (a square lattice's at 45°, a finer lattice at right angles): halves, thirds
+    # and half sums of the pair that are peaks too make the pair, until none is
+    level3 = np.log(6 * 9 / CANOPY_CHANCE[1]) / np.log(2.0)
+    cells = [(int(i), int(j)), (int(perp[i2]), int(j2))]
+    for _ in range(4):
+        k1, k2 = vector(*cells[0]), vector(*cells[1])
+        tries = ((k1 / 2, 0), (k1 / 3, 0), (k2 / 2, 1), (k2 / 3, 1))
+        new = None
+        for v, which in tries:
+            c = peak_at(v)
+            if c is not None:
+                new = list(cells)
+                new[which] = c
+                break
+        if new is None:
+            c1, c2 = peak_at((k1 + k2) / 2), peak_at((k1 - k2) / 2)
+            if c1 is not None and c2 is not None:
+                new = [c1, c2]
+        if new is None:
+            break
+        cells = new
+    k1, k2 = vector(*cells[0]), vector(*cells[1])
+    p1, p2 = 1.0 / float(np.hypot(*k1)), 1.0 / float(np.hypot(*k2))
+    t1, t2 = float(CANOPY_THETAS[cells[0][0]]), float(CANOPY_THETAS[cells[1][0]])
+    # the wave vector of the shorter period points along the rows
+    if p2 <= p1:
+        return t2 % np.pi, p1, p2
+    return t1 % np.pi, p2, p1
+
+
+#: :func:`canopy_planting` keeps a lattice when its ``N`` tops' fit reaches this over ``N``:
+#: the mean resultant length ``r`` of ``N`` random phases exceeds ``t`` with chance
+#: ``exp(-N t²)``; the fit is the product of the two axes' ``r`` (taken as one ``r²``), over
+#: about a thousand azimuths and spacings tried, at a chance of one in a thousand
+CANOPY_FIT_LEVEL = float(np.log(1e6))
+
+
+def canopy_planting(x, y, power, cell: float = 0.0):
+    """The planting lattice of a stand whose tops show none, from its canopy's spectrum
+    (:func:`canopy_spectrum`): the direction and spacings of
+    :func:`canopy_lattice_guess`, the lattice's offset (and the
+    direction to 0.05°, within 1° of the spectrum's) fitted on the tops ``x, y`` (at least 10)
+    by :func:`fit_planting_grid`. None when the canopy is not periodic beyond chance, or the
+    tops do not gather on the lattice beyond chance (:data:`CANOPY_FIT_LEVEL`)."""
+    guess = canopy_lattice_guess(power, cell)
+    if guess is None or np.asarray(x).size < 10:
+        return None
+    a, row, tree = guess
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    g = fit_planting_grid(x, y, row, tree, azimuths=(np.degrees(a) + np.arange(-1.0, 1.001,
+                                                                                0.25)) % 180.0)
+    # the spacings to 0.1 % on the tops along the fitted direction (a period 0.3 % off drifts
+    # 0.3 m over 100 m), kept where the tops concentrate more on them
+    sx, sy = _sample(x, y)
+    dx, dy = sx - sx.mean(), sy - sy.mean()
+    b = np.radians(g.azimuth)
+    tree2 = _spacing_along(dx * np.sin(b) + dy * np.cos(b), tree, 0.01)
+    row2 = _spacing_along(dx * np.cos(b) - dy * np.sin(b), row, 0.01)
+    g2 = fit_planting_grid(x, y, row2, tree2, azimuths=g.azimuth + np.arange(-0.5, 0.501, 0.25))
+    g = g2 if g2.fit > g.fit else g
+    # the tops must still gather on it beyond chance (merged neighbours' tops lie between two
+    # positions, so the fit is low, but not as low as random tops')
+    return g if x.size * g.fit >= CANOPY_FIT_LEVEL else None
