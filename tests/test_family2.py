@@ -141,7 +141,7 @@ def test_a_closed_stand_gets_its_lattice_from_the_canopy_where_the_tops_show_non
     """A 6-year 3 x 2 m stand of closed crowns (1.5 ha, 8 pts/m²): the tops of neighbours in a
     row merge, so ``-spacing auto`` found no lattice under them ("no rows of one direction and
     spacing"); the canopy heights' spectrum finds it (to 0.05 m and 1°) and the stocking comes
-    within 3 points of the truth."""
+    within 3 points of the truth; in tiles, the same."""
     import lidartrees_gis.als.canopy_lattice as canopy_lattice
     from lidartrees_gis import api as lt
     from lidartrees_gis.als.trees import TreeParams
@@ -156,6 +156,12 @@ def test_a_closed_stand_gets_its_lattice_from_the_canopy_where_the_tops_show_non
     assert st["lattice"] == "found" and st["spacing"] == "3x2"
     assert abs((st["row_azimuth"] - 20.0 + 90.0) % 180.0 - 90.0) <= 1.0
     assert abs(st["stocking_pct"] - truth["stands"][0]["stocking_pct"]) <= 3.0
+    # in 40 m tiles (the tiles' spectra summed): the same lattice and the same positions
+    tiled = lt.find_trees(las, params=params, stands=stands, tile_size=40,
+                          workers=1)[2]["stands"].iloc[0]
+    for key in ("lattice", "spacing", "row_azimuth", "planting_positions", "missing_trees",
+                "suppressed_trees", "uncertain_positions", "stocking_pct"):
+        assert tiled[key] == st[key], key
     monkeypatch.setattr(canopy_lattice, "canopy_planting", lambda *a, **k: None)
     st = lt.find_trees(las, params=params, stands=stands)[2]["stands"].iloc[0]
     assert st["lattice"].startswith("no planting lattice")

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from .spectrum import MIN_PERIOD_CELLS, SPECTRAL_PERIODS
-from .stocking import _sample, _spacing_along, fit_planting_grid
+from .stocking import _concentration, _sample, fit_planting_grid
 
 
 #: :func:`canopy_spectrum`'s polar grid: directions (0.5° steps) ...
@@ -58,14 +58,35 @@ def canopy_spectrum(chm, res: float, mask=None) -> np.ndarray:
     return out
 
 
-def canopy_lattice_guess(power, cell: float = 0.0):
+def stand_spectrum(powers) -> dict:
+    """The spectrum of a stand from its tiles' :func:`canopy_spectrum` (each over the tile's
+    core, disjoint): ``power`` their sum and ``looks`` how many independent periodograms it
+    averages, ``(sum m)² / sum m²`` of their median powers ``m``."""
+    powers = [np.asarray(p, float) for p in powers if p is not None and np.asarray(p).any()]
+    if not powers:
+        return {"power": np.zeros((CANOPY_THETAS.size, CANOPY_FREQS.size)), "looks": 1.0}
+    m = np.array([np.median(p[p > 0]) for p in powers])
+    return {"power": np.sum(powers, axis=0), "looks": float(m.sum() ** 2 / (m ** 2).sum())}
+
+
+def _level(cells: int, chance: float, looks: float) -> float:
+    """The ratio to the median that the largest of ``cells`` values reaches with ``chance``
+    when each is the mean of ``looks`` independent periodogram values of a canopy without
+    rows (a Gamma of shape ``looks``; 1: an exponential, ``log2(cells / chance)``)."""
+    from scipy.stats import gamma
+
+    return float(gamma.isf(chance / cells, looks) / gamma.median(looks))
+
+
+def canopy_lattice_guess(power, cell: float = 0.0, looks: float = 1.0):
     """Row direction (radians, as :func:`_spectral_guess`) and the periods across and along
     the rows from a :func:`canopy_spectrum` (summed over a stand's tiles), or None when the
     canopy is not periodic beyond chance on two axes at right angles.
 
     Each frequency's powers are divided by their median over the directions (a canopy without
     rows spreads its power evenly over them; a periodogram's values then fall off as
-    ``exp(-r ln 2)``); the strongest peak must pass the level that the grid's
+    ``exp(-r ln 2)``; the mean of ``looks`` of them, tiles of one stand, as a Gamma); the
+    strongest peak must pass the level that the grid's
     directions x frequencies reach with chance :data:`CANOPY_CHANCE`'s first, the strongest at
     right angles to it (within 1°) the second's. ``cell``: periods shorter than
     :data:`MIN_PERIOD_CELLS` cells are not looked at."""
@@ -78,13 +99,13 @@ def canopy_lattice_guess(power, cell: float = 0.0):
     med = np.median(p, axis=0)
     r = p / np.where(med > 0, med, np.inf)[None, :]
     n_t = CANOPY_THETAS.size
-    level1 = np.log(r.size / CANOPY_CHANCE[0]) / np.log(2.0)
+    level1 = _level(r.size, CANOPY_CHANCE[0], looks)
     i, j = np.unravel_index(int(np.argmax(r)), r.shape)
     if r[i, j] < level1:
         return None
     perp = (i + n_t // 2 + np.arange(-2, 3)) % n_t
     sub = r[perp]
-    level2 = np.log(sub.size / CANOPY_CHANCE[1]) / np.log(2.0)
+    level2 = _level(sub.size, CANOPY_CHANCE[1], looks)
     i2, j2 = np.unravel_index(int(np.argmax(sub)), sub.shape)
     if sub[i2, j2] < level2:
         return None
@@ -114,7 +135,7 @@ def canopy_lattice_guess(power, cell: float = 0.0):
     # the strongest peaks may be a harmonic (crowns flat between their tops) or the lattice's
     # diagonals (a square lattice's at 45°, a finer lattice at right angles): halves, thirds
     # and half sums of the pair that are peaks too make the pair, until none is
-    level3 = np.log(6 * 9 / CANOPY_CHANCE[1]) / np.log(2.0)
+    level3 = _level(6 * 9, CANOPY_CHANCE[1], looks)
     cells = [(int(i), int(j)), (int(perp[i2]), int(j2))]
     for _ in range(4):
         k1, k2 = vector(*cells[0]), vector(*cells[1])
@@ -149,29 +170,56 @@ def canopy_lattice_guess(power, cell: float = 0.0):
 CANOPY_FIT_LEVEL = float(np.log(1e6))
 
 
-def canopy_planting(x, y, power, cell: float = 0.0):
+#: :func:`canopy_planting` refines the spectrum's spacings within this share of them, on
+#: multiples of :data:`PERIOD_STEP` (m): the same candidates whatever the guess, so a stand's
+#: tiles' spectrum and its whole canopy's give it the same lattice
+PERIOD_REACH, PERIOD_STEP = 0.015, 0.0005
+
+
+def _period_on(p, s0: float) -> float:
+    """The period within :data:`PERIOD_REACH` of ``s0`` on which the positions ``p``
+    concentrate most, among the multiples of :data:`PERIOD_STEP`."""
+    lo = np.floor(s0 * (1 - PERIOD_REACH) / PERIOD_STEP)
+    hi = np.ceil(s0 * (1 + PERIOD_REACH) / PERIOD_STEP)
+    cand = np.arange(lo, hi + 1) * PERIOD_STEP
+    r, _ = _concentration(p[None, :], cand[:, None])
+    return float(cand[int(np.argmax(r))])
+
+
+def canopy_planting(x, y, spectrum, cell: float = 0.0):
     """The planting lattice of a stand whose tops show none, from its canopy's spectrum
     (:func:`canopy_spectrum`): the direction and spacings of
     :func:`canopy_lattice_guess`, the lattice's offset (and the
     direction to 0.05°, within 1° of the spectrum's) fitted on the tops ``x, y`` (at least 10)
     by :func:`fit_planting_grid`. None when the canopy is not periodic beyond chance, or the
     tops do not gather on the lattice beyond chance (:data:`CANOPY_FIT_LEVEL`)."""
-    guess = canopy_lattice_guess(power, cell)
+    if not isinstance(spectrum, dict):
+        spectrum = {"power": spectrum, "looks": 1.0}
+    guess = canopy_lattice_guess(spectrum["power"], cell, spectrum.get("looks", 1.0))
     if guess is None or np.asarray(x).size < 10:
         return None
     a, row, tree = guess
     x, y = np.asarray(x, float), np.asarray(y, float)
-    g = fit_planting_grid(x, y, row, tree, azimuths=(np.degrees(a) + np.arange(-1.0, 1.001,
-                                                                                0.25)) % 180.0)
-    # the spacings to 0.1 % on the tops along the fitted direction (a period 0.3 % off drifts
-    # 0.3 m over 100 m), kept where the tops concentrate more on them
     sx, sy = _sample(x, y)
     dx, dy = sx - sx.mean(), sy - sy.mean()
-    b = np.radians(g.azimuth)
-    tree2 = _spacing_along(dx * np.sin(b) + dy * np.cos(b), tree, 0.01)
-    row2 = _spacing_along(dx * np.cos(b) - dy * np.sin(b), row, 0.01)
-    g2 = fit_planting_grid(x, y, row2, tree2, azimuths=g.azimuth + np.arange(-0.5, 0.501, 0.25))
-    g = g2 if g2.fit > g.fit else g
+
+    def periods(az):  # the spacings to 0.05 % on the tops along ``az`` (degrees): a period
+        b = np.radians(az)  # 0.3 % off drifts 0.3 m over 100 m
+        return (_period_on(dx * np.cos(b) - dy * np.sin(b), row),
+                _period_on(dx * np.sin(b) + dy * np.cos(b), tree))
+
+    # every step on fixed grids (the spectrum's 0.5° directions, multiples of PERIOD_STEP), so
+    # the spectra of a stand's tiles and of its whole canopy lead to the same lattice
+    az0 = round(float(np.degrees(a)) / 0.5) * 0.5
+    g = fit_planting_grid(x, y, *periods(az0), azimuths=(az0 + np.arange(-1.0, 1.001, 0.25))
+                          % 180.0)
+    for _ in range(6):  # to the lattice that its own spacings and direction give again
+        g2 = fit_planting_grid(x, y, *periods(g.azimuth),
+                               azimuths=(g.azimuth + np.arange(-0.5, 0.501, 0.25)) % 180.0)
+        if g2.fit <= g.fit or (g2.row_spacing, g2.tree_spacing, g2.azimuth) == \
+                (g.row_spacing, g.tree_spacing, g.azimuth):
+            break
+        g = g2
     # the tops must still gather on it beyond chance (merged neighbours' tops lie between two
     # positions, so the fit is low, but not as low as random tops')
     return g if x.size * g.fit >= CANOPY_FIT_LEVEL else None

@@ -332,12 +332,14 @@ def _area_grids(runner, area, p: TreeParams, plan: AreaPlan, surface, stands, pr
     from .tile import number_regions, tile_canopy_spectra
 
     def spectra(keys):  # -spacing auto, stands whose tops show no lattice: their canopies
-        total = {}
+        from .canopy_lattice import stand_spectrum
+
+        parts = {}
         for r in runner.map(tile_canopy_spectra, list(plan.tiles),
                             (area, p, plan, surface, stands, list(keys)), label="lattice tile"):
             for k, v in r.items():
-                total[k] = total[k] + v if k in total else v
-        return total
+                parts.setdefault(k, []).append(v)
+        return {k: stand_spectrum(v) for k, v in parts.items()}
 
     grids = fit_stand_grids(x, y, z if stands is not None else None, p.spacing, whole=True,
                             cell=plan.res, spectra=spectra)

@@ -185,8 +185,9 @@ def tile_canopy_spectra(tile: Tile, area, params: TreeParams, plan: AreaPlan,
                         surface: SurfaceOptions, stands=None, keys=(), progress=None) -> dict:
     """``-spacing auto``'s second look at the stands whose tops show no lattice: the tile's
     canopy spectrum (:func:`lidartrees_gis.als.canopy_lattice.canopy_spectrum`) over each stand of
-    ``keys`` (stand indices; ``"all"``: the whole tile), ``{key: power}``; the stands' spectra
-    are the sums over their tiles. Reads the surfaces :func:`tile_first_tops` kept, else makes
+    ``keys`` (stand indices; ``"all"``: the whole tile) within the tile's core,
+    ``{key: power}``; a stand's spectrum is their sum over its tiles
+    (:func:`lidartrees_gis.als.canopy_lattice.stand_spectrum`). Reads the surfaces :func:`tile_first_tops` kept, else makes
     them again."""
     from ..catalog.source import shared_cache
     from .canopy_lattice import canopy_spectrum
@@ -201,12 +202,15 @@ def tile_canopy_spectra(tile: Tile, area, params: TreeParams, plan: AreaPlan,
                          progress=progress)
     if s is None:
         return {}
-    zone = zones(stands, s["spec"]) if stands is not None else None
+    spec = s["spec"]
+    zone = zones(stands, spec) if stands is not None else None
+    rows, cols = np.indices(spec.shape)
+    core = tile.in_core(*spec.xy(rows, cols))  # the tiles' spectra cover disjoint cells
     out = {}
     for k in keys:
-        mask = None if k == "all" or zone is None else zone == k
-        if mask is None or mask.any():
-            out[k] = canopy_spectrum(s["chm"], s["spec"].res, mask)
+        mask = core if k == "all" or zone is None else core & (zone == k)
+        if mask.any():
+            out[k] = canopy_spectrum(s["chm"], spec.res, mask)
     return out
 
 
