@@ -143,6 +143,7 @@ def test_a_planted_pickle_in_the_shared_read_cache_is_never_run(tmp_path):
     assert cache.take(("tile surfaces", 1)) is None and not marker.exists()
     # a tile reading through the folder with the planted file: read from the file, not it
     os.environ[source.SHARED_CACHE_ENV] = str(cache_dir)
+    os.environ[source.SHARED_POINTS_ENV] = "1"  # a run of several processes
     try:
         source.READ_CACHE.clear()
         plant(Path(cache._path(key)), marker)
@@ -155,6 +156,7 @@ def test_a_planted_pickle_in_the_shared_read_cache_is_never_run(tmp_path):
             np.concatenate([c.z for c in chunks]), pts.z)
     finally:
         os.environ.pop(source.SHARED_CACHE_ENV)
+        os.environ.pop(source.SHARED_POINTS_ENV)
         source.READ_CACHE.clear()
 
 

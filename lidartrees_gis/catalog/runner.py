@@ -374,6 +374,8 @@ class TileRunner:
         _remove_orphans(tempfile.gettempdir())
         self._shared = tempfile.mkdtemp(prefix=f"{SHARED_PREFIX}{os.getpid()}-")
         os.environ[SHARED_CACHE_ENV] = self._shared
+        # decompressed files go there only for other processes to read (a local cluster)
+        os.environ[source.SHARED_POINTS_ENV] = "1" if self.workers > 1 else "0"
 
     def __exit__(self, *exc):
         READ_CACHE.clear()  # this process's decompressed files (workers end with the cluster)
@@ -394,6 +396,7 @@ class TileRunner:
 
             if os.environ.get(SHARED_CACHE_ENV) == self._shared:
                 del os.environ[SHARED_CACHE_ENV]
+                os.environ.pop(source.SHARED_POINTS_ENV, None)
             shutil.rmtree(self._shared, ignore_errors=True)
             self._shared = None
 
