@@ -7,7 +7,8 @@ Also tiled = untiled on the four lasR_bcts tiles. When Rscript with lasR and/or 
 PATH (with the library ../shared/peers/build.sh makes: lasR 0.21.1, lidR 4.1.2, found without
 setting R_LIBS) their chains (:data:`R_LASR`, :data:`R_LIDR`) run on the same files in the same
 run, pinned to one core and one thread, at 0.5 m and (lasR) at our default cell too; ours runs
-with its defaults and at -tr 0.5, and the ratios are written beside.
+with its defaults and at -tr 0.5, and the ratios are written beside, with the decode floor
+(:func:`decode_floor`: every point decoded by laspy + lazrs on one core) and ours over it.
 Sizes not run keep their earlier results in the output file.
 
 Each configuration runs ``--repeat`` times (alternating one and two workers) and the median is
@@ -175,6 +176,30 @@ def bcts_equality(tmp: Path) -> dict:
             "same_ids": set(a["tree_ids"].tolist()) == set(b["tree_ids"].tolist())}
 
 
+DECODE = r"""
+import sys, time, laspy
+t0 = time.perf_counter()
+n = 0
+for f in sys.argv[1:]:
+    with laspy.open(f) as r:  # lazrs, one thread: every point record decoded
+        for c in r.chunk_iterator(2_000_000):
+            n += len(c)
+print(n, time.perf_counter() - t0)
+"""
+
+
+def decode_floor(files) -> dict:
+    """The floor of any chain on these files: decoding every point with laspy + lazrs on one
+    core (pinned, one thread), in a fresh process as ours and the peers run."""
+    cmd = [sys.executable, "-c", DECODE, *map(str, files)]
+    if shutil.which("taskset"):
+        cmd = ["taskset", "-c", "0", *cmd]
+    out = subprocess.run(cmd, capture_output=True, text=True, check=True)
+    n, sec = out.stdout.split()
+    return {"points": int(n), "seconds": round(float(sec), 2),
+            "points_per_s": round(int(n) / float(sec))}
+
+
 def _median_run(runs: list) -> dict:
     """The run with the median time (all times under ``seconds_all``, the highest peak RSS)."""
     ok = [r for r in runs if "seconds" in r]
@@ -227,7 +252,7 @@ def main():
         for m in sizes:
             folder = tmp / f"mp_{m:g}M"
             files = make_copies(m * 1e6, folder)
-            row = {"files": len(files)}
+            row = {"files": len(files), "decode_floor": decode_floor(files)}
             runs = {1: [], 2: []}
             for k in range(a.repeat):  # alternated, so a noisy minute hits both alike
                 for w in (1, 2):
@@ -239,10 +264,16 @@ def main():
             r1, r2 = row["workers_1"], row["workers_2"]
             if "seconds" in r1 and "seconds" in r2:
                 row["two_workers_over_one"] = round(r2["seconds"] / r1["seconds"], 3)
+            if "seconds" in r1:  # issue 39's aim: the defaults within 3x the decode floor
+                row["one_core_defaults_over_decode"] = round(
+                    r1["seconds"] / row["decode_floor"]["seconds"], 2)
             # ours at the peers' cell size (0.5 m), one core
             print(f"{m:g} M points, 1 worker, -tr 0.5", file=sys.stderr, flush=True)
             row["workers_1_res_0.5"] = _median_run([run_chain(folder, tmp / "out.gpkg", 1, 0.5)
                                                     for _ in range(max(1, a.repeat - 1))])
+            if "seconds" in row["workers_1_res_0.5"]:
+                row["one_core_res_0.5_over_decode"] = round(
+                    row["workers_1_res_0.5"]["seconds"] / row["decode_floor"]["seconds"], 2)
             ours_res = r1.get("res")
             for pkg in r_pkgs:  # the peers' chains on the same files, one thread
                 for rr in sorted({0.5, *([ours_res] if pkg == "lasR" and ours_res else [])}):
