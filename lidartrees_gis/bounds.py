@@ -20,9 +20,11 @@ NUMBER_OR_WORD = {"tile_size": "m", "base": "m"}
 WORDS = ("auto", "none", "")
 
 
-def check_number(flag: str, value, unit: str = "", name: str | None = None) -> None:
+def check_number(flag: str, value, unit: str = "", name: str | None = None, *,
+                 text_ok: bool = True) -> None:
     """Raise :class:`InputError` naming ``flag`` unless ``value`` is a finite number within
-    :data:`NUMBER_BOUNDS` for ``unit`` (or 0). Words (auto, none) and ``None`` pass."""
+    :data:`NUMBER_BOUNDS` for ``unit`` (or 0). Words (auto, none) and ``None`` pass, and other
+    text too when ``text_ok`` (a form the option parses itself, e.g. a range)."""
     if value is None or isinstance(value, bool):
         return
     text = str(value).strip()
@@ -31,7 +33,7 @@ def check_number(flag: str, value, unit: str = "", name: str | None = None) -> N
     try:
         f = float(text)
     except ValueError:
-        if isinstance(value, str):
+        if isinstance(value, str) and text_ok:
             return  # another form the option parses (e.g. a range); its own check reads it
         raise InputError(f"{flag}: expected a number, got {text!r}") from None
     if not math.isfinite(f):

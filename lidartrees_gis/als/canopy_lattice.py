@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from .spectrum import MIN_PERIOD_CELLS, SPECTRAL_PERIODS
-from .stocking import _concentration, _sample, fit_planting_grid
+from .stocking import _sample, _spacing_along, fit_planting_grid
 
 
 #: :func:`canopy_spectrum`'s polar grid: directions (0.5° steps) ...
@@ -171,19 +171,9 @@ CANOPY_FIT_LEVEL = float(np.log(1e6))
 
 
 #: :func:`canopy_planting` refines the spectrum's spacings within this share of them, on
-#: multiples of :data:`PERIOD_STEP` (m): the same candidates whatever the guess, so a stand's
+#: multiples of ``PERIOD_STEP`` (m): the same candidates whatever the guess, so a stand's
 #: tiles' spectrum and its whole canopy's give it the same lattice
 PERIOD_REACH, PERIOD_STEP = 0.015, 0.0005
-
-
-def _period_on(p, s0: float) -> float:
-    """The period within :data:`PERIOD_REACH` of ``s0`` on which the positions ``p``
-    concentrate most, among the multiples of :data:`PERIOD_STEP`."""
-    lo = np.floor(s0 * (1 - PERIOD_REACH) / PERIOD_STEP)
-    hi = np.ceil(s0 * (1 + PERIOD_REACH) / PERIOD_STEP)
-    cand = np.arange(lo, hi + 1) * PERIOD_STEP
-    r, _ = _concentration(p[None, :], cand[:, None])
-    return float(cand[int(np.argmax(r))])
 
 
 def canopy_planting(x, y, spectrum, cell: float = 0.0):
@@ -205,8 +195,10 @@ def canopy_planting(x, y, spectrum, cell: float = 0.0):
 
     def periods(az):  # the spacings to 0.05 % on the tops along ``az`` (degrees): a period
         b = np.radians(az)  # 0.3 % off drifts 0.3 m over 100 m
-        return (_period_on(dx * np.cos(b) - dy * np.sin(b), row),
-                _period_on(dx * np.sin(b) + dy * np.cos(b), tree))
+        return (_spacing_along(dx * np.cos(b) - dy * np.sin(b), row,
+                               PERIOD_REACH, PERIOD_STEP),
+                _spacing_along(dx * np.sin(b) + dy * np.cos(b), tree,
+                               PERIOD_REACH, PERIOD_STEP))
 
     # every step on fixed grids (the spectrum's 0.5° directions, multiples of PERIOD_STEP), so
     # the spectra of a stand's tiles and of its whole canopy lead to the same lattice

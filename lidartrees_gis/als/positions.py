@@ -85,6 +85,8 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
     if auto and spectra is not None:
         # where the tops show no lattice: the canopy's spectrum (one more pass for them only)
         lost = [k for k, g in own.items() if g is None and tops_of(k)[0].size >= 10]
+        if zone is not None and lost == ["all"]:
+            lost = []  # with stands, the area's lattice is a fallback only: no pass for it alone
         if lost:
             powers = spectra(lost)
             for k in lost:

@@ -8,13 +8,13 @@ cells, planting positions), so a stand spanning many tiles gets the figures of o
 """
 from __future__ import annotations
 
-import unicodedata
 import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..errors import DataWarning, InputError
+from ..io.names import plain
 from .stocking import STOCK_COUNTS
 
 #: the stand id field looked for when ``-stand_id`` is not given (case and accents ignored)
@@ -28,11 +28,6 @@ DOMINANT_PER_HA = 100
 #: a stand less covered by the points than this (%) is named in a warning: its per-hectare
 #: figures count only the trees of the part that was flown
 MIN_DATA_COVER_PCT = 95.0
-
-
-def _plain(name: str) -> str:
-    s = unicodedata.normalize("NFKD", str(name)).encode("ascii", "ignore").decode()
-    return s.strip().lower().replace(" ", "_")
 
 
 @dataclass(frozen=True)
@@ -137,16 +132,16 @@ def _ids(gdf, id_field, name: str) -> tuple:
     cols = [c for c in gdf.columns if c != gdf.geometry.name]
     if id_field:
         match = [c for c in cols if c == id_field] or [c for c in cols
-                                                       if _plain(c) == _plain(id_field)]
+                                                       if plain(c) == plain(id_field)]
         if not match:
             raise InputError(f"-stand_id: {name} has no field {id_field!r} (fields: "
                              f"{', '.join(map(str, cols)) or 'none'})")
         col = match[0]
     else:
-        by_plain = {_plain(c): c for c in cols}
+        by_plain = {plain(c): c for c in cols}
         col = next((by_plain[f] for f in ID_FIELDS if f in by_plain), "")
         if not col:
-            col = next((c for c in cols if any(w in _plain(c) for w in ID_HINTS)), "")
+            col = next((c for c in cols if any(w in plain(c) for w in ID_HINTS)), "")
             listed = ", ".join(map(str, cols))
             if col:
                 warnings.warn(DataWarning(

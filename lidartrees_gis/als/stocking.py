@@ -426,10 +426,15 @@ def gap_tops(gaps_x, gaps_y, returns, chm_s, spec, spacing, *, top_x, top_y,
 PLANTING_MIN_FIT = 0.25
 
 
-def _spacing_along(p, s0, within: float = 0.15):
+def _spacing_along(p, s0, within: float = 0.15, step: float | None = None):
     """The period near ``s0`` (within ``within``, ±15 %) on which the positions ``p``
-    concentrate most."""
-    cand = s0 * np.linspace(1.0 - within, 1.0 + within, 121)
+    concentrate most; among 121 candidates, or (``step``) among the multiples of ``step`` (m):
+    the same candidates whatever ``s0``."""
+    if step is None:
+        cand = s0 * np.linspace(1.0 - within, 1.0 + within, 121)
+    else:
+        cand = np.arange(np.floor(s0 * (1 - within) / step),
+                         np.ceil(s0 * (1 + within) / step) + 1) * step
     r, _ = _concentration(p[None, :], cand[:, None])
     return float(cand[int(np.argmax(r))])
 

@@ -182,14 +182,7 @@ def check_numbers(cmd, kw) -> None:
         v = kw.get(p.name)
         if unit is None or v is None or isinstance(v, bool) or str(v).strip() == "":
             continue
-        if p.kind in ("float", "int") and isinstance(v, str):
-            try:
-                float(v)
-            except ValueError:
-                from ..errors import InputError
-
-                raise InputError(f"{p.flag}: expected a number, got {v.strip()!r}") from None
-        check_number(p.flag, v, unit, p.name)
+        check_number(p.flag, v, unit, p.name, text_ok=p.kind == "str")
 
 
 def main(argv=None) -> int:

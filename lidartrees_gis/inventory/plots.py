@@ -8,21 +8,16 @@ inside it (``shapely.contains_xy``).
 """
 from __future__ import annotations
 
-import unicodedata
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..errors import CRSError, InputError
+from ..io.names import plain
 
 #: the plot id field looked for when ``-plot_id`` is not given (case and accents ignored)
 PLOT_ID_FIELDS = ("plot_id", "parcela", "id_parcela", "cod_parcela", "num_parcela", "plot",
                   "idpep", "id", "name", "nome")
-
-
-def _plain(name) -> str:
-    s = unicodedata.normalize("NFKD", str(name)).encode("ascii", "ignore").decode()
-    return s.strip().lower().replace(" ", "_")
 
 
 @dataclass(frozen=True)
@@ -129,13 +124,13 @@ class Zones:
 def _ids(gdf, id_field, name: str):
     cols = [c for c in gdf.columns if c != gdf.geometry.name]
     if id_field:
-        match = [c for c in cols if _plain(c) == _plain(id_field)]
+        match = [c for c in cols if plain(c) == plain(id_field)]
         if not match:
             raise InputError(f"-plot_id: {name} has no field {id_field!r} (fields: "
                              f"{', '.join(map(str, cols)) or 'none'})")
         col = match[0]
     else:
-        by_plain = {_plain(c): c for c in cols}
+        by_plain = {plain(c): c for c in cols}
         col = next((by_plain[f] for f in PLOT_ID_FIELDS if f in by_plain), None)
     if col is None:
         return [str(i + 1) for i in range(len(gdf))]

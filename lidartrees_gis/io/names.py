@@ -42,6 +42,13 @@ TREE_COLUMNS = {
 }
 
 
+def plain(name) -> str:
+    """A field name as the id-field lookups compare it: no accents, lower case, spaces as
+    underscores (``"Talhão ID"`` -> ``"talhao_id"``)."""
+    s = unicodedata.normalize("NFKD", str(name)).encode("ascii", "ignore").decode()
+    return s.strip().lower().replace(" ", "_")
+
+
 def normalise(name) -> str:
     """A column name without a unit in brackets, case, accents, spaces, dots, hyphens or
     underscores (but ``//x``, LAStools' header, kept): ``"Classificação"`` ->
