@@ -91,3 +91,68 @@ def test_each_stand_s_positions_are_read_at_its_own_spacing():
     assert own["gaps_status"][0] == UNCERTAIN
     tile_wide = position_status([0.0], [0.0], pts, (3.0, 2.0), 23.0)
     assert tile_wide["returns"][0] == 6 and tile_wide["status"][0] == MISSING
+
+
+def _lattice_in(poly, grid):
+    """Every lattice position of ``grid`` inside the shapely polygon ``poly``: (x, y, i, j)."""
+    import shapely
+
+    x0, y0, x1, y1 = poly.bounds
+    ci, cj = grid.to_lattice(np.array([x0, x0, x1, x1]), np.array([y0, y1, y0, y1]))
+    ii, jj = np.meshgrid(np.arange(np.floor(ci.min()) - 1, np.ceil(ci.max()) + 2),
+                         np.arange(np.floor(cj.min()) - 1, np.ceil(cj.max()) + 2))
+    x, y = grid.to_map(ii.ravel(), jj.ravel())
+    keep = shapely.contains_xy(poly, x, y)
+    return x[keep], y[keep], ii.ravel()[keep].astype(int), jj.ravel()[keep].astype(int)
+
+
+@pytest.mark.parametrize("azimuth", [7.0, 33.0, 61.0, 118.0, 152.0])
+@pytest.mark.parametrize("shape", ["convex", "notched"])
+def test_a_row_whose_end_trees_are_missing_runs_as_far_as_its_neighbours(azimuth, shape):
+    # a planted area (convex, or an L with a corner bent inwards) at an angle to the rows;
+    # the end trees of some rows are missing: the spans come back toward the true ends and
+    # never pass them
+    from shapely.geometry import Polygon
+
+    from lidartrees_gis.als.positions import row_spans
+    from lidartrees_gis.als.stocking import PlantingGrid
+
+    grid = PlantingGrid(3.0, 2.0, azimuth, 500000.3, 7500000.7, 1.0)
+    pts = [(0, 0), (120, 8), (128, 90), (20, 110), (-6, 50)] if shape == "convex" else \
+        [(0, 0), (120, 0), (120, 50), (60, 50), (60, 110), (0, 110)]
+    poly = Polygon([(500000 + a, 7500000 + b) for a, b in pts])
+    x, y, i, j = _lattice_in(poly, grid)
+    rows = np.unique(j)
+    t_first = np.array([i[j == r].min() for r in rows])
+    t_last = np.array([i[j == r].max() for r in rows])
+    rng = np.random.default_rng(int(azimuth))
+    keep = np.ones(x.size, bool)
+    cut = rng.choice(np.arange(3, rows.size - 3), size=rows.size // 5, replace=False)
+    n_cut = {}
+    for k in cut:  # 1-3 end trees missing at one end of the row
+        m = int(rng.integers(1, 4))
+        at_end = t_last[k] - np.arange(m) if k % 2 else t_first[k] + np.arange(m)
+        keep &= ~((j == rows[k]) & np.isin(i, at_end))
+        n_cut[k] = m
+    r, first, last = row_spans(grid, x[keep], y[keep])
+    assert np.array_equal(r, rows)
+    assert (first >= t_first).all() and (last <= t_last).all()  # nothing beyond the planting
+    short = (first - t_first) + (t_last - last)
+    assert short.max() <= 3 and short.sum() < sum(n_cut.values())
+    recovered = sum(n_cut.values()) - short.sum()
+    assert recovered >= 0.3 * sum(n_cut.values())
+
+
+def test_row_ends_from_neighbours_adds_nothing_to_an_intact_edge():
+    from lidartrees_gis.als.positions import row_ends_from_neighbours
+
+    rows = np.arange(40)
+    for slope in (0.0, 0.37, 1.0, 1.7, 4.2):
+        for bend in (1.0, -1.0):  # a straight edge, bent outwards or inwards at row 20
+            e = 50.0 + slope * rows + bend * 0.8 * np.abs(rows - 20)
+            last = np.floor(e).astype(np.int64)
+            assert np.array_equal(row_ends_from_neighbours(rows, last), last)
+            gone = last.copy()
+            gone[[9, 30]] -= 3  # three end trees missing in two rows: some come back
+            ends = row_ends_from_neighbours(rows, gone)
+            assert (ends <= last).all() and (ends[[9, 30]] > gone[[9, 30]]).all()

@@ -132,7 +132,48 @@ def row_spans(grid: PlantingGrid, x, y) -> tuple:
     last = np.full(rows.size, np.iinfo(np.int64).min)
     np.minimum.at(first, inv, ri)
     np.maximum.at(last, inv, ri)
-    return rows, first, last
+    return rows, -row_ends_from_neighbours(rows, -first), row_ends_from_neighbours(rows, last)
+
+
+#: how many rows on each side :func:`row_ends_from_neighbours` reads a row's end from
+ROW_END_DEPTH = 3
+
+
+def row_ends_from_neighbours(rows, last, depth: int = ROW_END_DEPTH):
+    """Each row's last planted position from its own last tree and its neighbours': a row whose
+    last trees are missing still runs as far as the rows on both sides say.
+
+    The reach of row ``j`` is the least of ``floor((last[j - d] + last[j + d]) / 2)`` over
+    ``d = 1..depth`` (rows not both present say nothing), where both lines, through rows
+    ``j - 3, j - 1`` and through ``j + 3, j + 1``, pass the row's last tree, and no farther
+    than the farther of them. For a
+    convex planted area (an edge straight, or bent outwards, at any angle to the rows) the
+    reach never passes the row's true end, its staircase included, so no position beyond the
+    planting is added; the lines keep a corner bent inwards, or a step in the edge, from adding
+    any either. A row's missing end trees are recovered but for one or two at most. ``rows``: sorted row indices;
+    ``last``: their last positions (negate both ends for a row's first)."""
+    rows = np.asarray(rows, np.int64)
+    last = np.asarray(last, np.int64)
+    n = rows.size
+    if n < 3:
+        return last
+    big = np.iinfo(np.int64).max
+
+    def at(d):  # index of row j + d and whether it exists
+        k = np.clip(np.searchsorted(rows, rows + d), 0, n - 1)
+        return k, rows[k] == rows + d
+
+    reach = np.full(n, big)
+    for d in range(1, depth + 1):
+        (lo, has_lo), (hi, has_hi) = at(-d), at(d)
+        both = has_lo & has_hi
+        reach = np.where(both, np.minimum(reach, (last[lo] + last[hi]) // 2), reach)
+    (l1, h1), (l3, h3), (r1, g1), (r3, g3) = at(-1), at(-3), at(1), at(3)
+    lines = h1 & h3 & g1 & g3
+    left, right = (3 * last[l1] - last[l3]) // 2, (3 * last[r1] - last[r3]) // 2
+    beyond = lines & (np.minimum(left, right) > last)  # both sides say the row runs on
+    reach = np.where(beyond, np.minimum(reach, np.maximum(left, right)), big)
+    return np.where(reach < big, np.maximum(last, reach), last)
 
 
 def lattice_anchor(grid: PlantingGrid, region, res: float) -> tuple:
