@@ -84,7 +84,7 @@ def run_config(name, p, density, draws, resamples):
     import pyproj
 
     from lidartrees_gis.als.chain import trees_run
-    from lidartrees_gis.als.stands import load_stands
+    from lidartrees_gis.plantation.stands import load_stands
     from lidartrees_gis.catalog.catalog import Catalog, TilingOptions
     from lidartrees_gis.inventory.field import Equation, complete_trees, plot_figures
     from lidartrees_gis.inventory.models import (aba_stands, fit_dap_height, ratio_stands,

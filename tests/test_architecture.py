@@ -19,12 +19,13 @@ ROOMS = {
     "report": ("core", "io"),
     "ground": ("core", "io", "catalog", "report"),
     "tls": ("core", "io", "report"),
-    "als": ("core", "io", "catalog", "report", "ground"),
+    "plantation": ("core", "io", "report"),
+    "als": ("core", "io", "catalog", "report", "ground", "plantation"),
     "synthetic": ("core", "io"),
-    "inventory": ("core", "io", "catalog", "report", "ground", "als"),
+    "inventory": ("core", "io", "catalog", "report", "ground", "plantation", "als"),
     # the adapters on top: the command line, the Python API, the demo and the fuzzer
-    "top": ("core", "io", "catalog", "report", "ground", "tls", "als", "synthetic",
-            "inventory"),
+    "top": ("core", "io", "catalog", "report", "ground", "tls", "plantation", "als",
+            "synthetic", "inventory"),
 }
 CORE = {"errors", "bounds", "progress", "crs", "grid", "tin", "_accel", "_raster", "_version"}
 
@@ -41,8 +42,8 @@ def _room(module: str) -> str:
         return "top"  # the package itself: the Python API's facade
     if parts[0] in CORE:
         return "core"
-    if parts[0] in ("io", "catalog", "report", "ground", "tls", "als", "synthetic",
-                    "inventory"):
+    if parts[0] in ("io", "catalog", "report", "ground", "tls", "plantation", "als",
+                    "synthetic", "inventory"):
         return parts[0]
     return "top"  # cli, api, demo, fuzz
 

@@ -142,7 +142,7 @@ def test_a_closed_stand_gets_its_lattice_from_the_canopy_where_the_tops_show_non
     row merge, so ``-spacing auto`` found no lattice under them ("no rows of one direction and
     spacing"); the canopy heights' spectrum finds it (to 0.05 m and 1°) and the stocking comes
     within 3 points of the truth; in tiles, the same."""
-    import lidartrees_gis.als.canopy_lattice as canopy_lattice
+    import lidartrees_gis.plantation.canopy_lattice as canopy_lattice
     from lidartrees_gis import api as lt
     from lidartrees_gis.als.trees import TreeParams
 

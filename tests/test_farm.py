@@ -65,7 +65,7 @@ def test_stands_layer_keeps_the_users_attributes_and_id_field(farm):
 
 
 def test_an_unknown_id_field_is_said_and_used(farm, capsys):
-    from lidartrees_gis.als.stands import load_stands
+    from lidartrees_gis.plantation.stands import load_stands
 
     g = gpd.read_file(farm["dir"] / "num.gpkg")
     with pytest.warns(DataWarning, match="NUM_TALHAO") as rec:
@@ -131,7 +131,7 @@ def _ptbr(path):
 
 
 def test_stand_csv_round_trips_in_a_ptbr_spreadsheet_reading(ptbr_run):
-    from lidartrees_gis.als.stands import STAND_DECIMALS
+    from lidartrees_gis.plantation.stands import STAND_DECIMALS
 
     raw = (ptbr_run / "talhoes.csv").read_bytes()
     assert raw.startswith(b"\xef\xbb\xbf")  # the BOM: Talhão, not TalhÃ£o

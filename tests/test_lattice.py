@@ -94,7 +94,7 @@ def test_lattice_found_when_the_chm_grid_skews_the_neighbours(rs, ts, az, extra)
     # tops on 0.5 m cells with 40-60 % more tops beside the trees: the neighbours' directions
     # peak on directions the grid favours (the first three found no lattice before); the
     # positions' spectrum still gives the lattice
-    from lidartrees_gis.als.stocking import detect_planting
+    from lidartrees_gis.plantation.stocking import detect_planting
 
     x, y = _snapped_lattice(rs, ts, az, 0.5, extra)
     g = detect_planting(x, y)
@@ -104,7 +104,7 @@ def test_lattice_found_when_the_chm_grid_skews_the_neighbours(rs, ts, az, extra)
 
 
 def test_random_trees_have_no_spectral_lattice():
-    from lidartrees_gis.als.stocking import _spectral_guess
+    from lidartrees_gis.plantation.stocking import _spectral_guess
 
     rng = np.random.default_rng(11)
     for n, side in ((300, 60.0), (2000, 200.0), (8000, 400.0)):
@@ -150,7 +150,7 @@ def _lattice(rs, ts, az_deg, size=120.0, missing=0.1, seed=0):
 def test_a_closed_canopy_shows_its_lattice_in_its_spectrum(rs, ts, az):
     """Crowns wider than the plant spacing (a closed canopy, where the tops of neighbours in a
     row merge): the canopy heights' spectrum still holds the lattice, to 0.02 m and 0.5°."""
-    from lidartrees_gis.als.canopy_lattice import canopy_lattice_guess, canopy_spectrum
+    from lidartrees_gis.plantation.canopy_lattice import canopy_lattice_guess, canopy_spectrum
 
     x, y = _lattice(rs, ts, az)
     chm, res = _canopy(x, y, radius=1.15 * np.sqrt(rs * ts) / 2)  # _family2's closed crowns
@@ -166,10 +166,63 @@ def test_a_closed_canopy_shows_its_lattice_in_its_spectrum(rs, ts, az):
 
 def test_a_canopy_without_rows_has_no_spectral_lattice():
     """The same crowns at random positions (as many, as wide): no lattice, in 5 draws."""
-    from lidartrees_gis.als.canopy_lattice import canopy_lattice_guess, canopy_spectrum
+    from lidartrees_gis.plantation.canopy_lattice import canopy_lattice_guess, canopy_spectrum
 
     for seed in range(5):
         rng = np.random.default_rng(seed)
         n = int(120 * 120 / 6.0)
         chm, res = _canopy(rng.uniform(0, 120, n), rng.uniform(0, 120, n), 1.9, seed=seed)
         assert canopy_lattice_guess(canopy_spectrum(chm, res), res) is None
+
+
+@pytest.mark.parametrize("azimuth,spacing", [(20.0, (3.0, 2.0)), (118.0, (3.0, 1.5))])
+def test_positions_and_their_statuses_against_the_truth(tmp_path, azimuth, spacing):
+    # every planting position counted once, and each empty one's status against what the
+    # generator planted there: missing, or a suppressed tree under its neighbours
+    import geopandas as gpd
+    from scipy.spatial import cKDTree
+
+    s = replace(StandSpec(), azimuth=azimuth, row_spacing=spacing[0], tree_spacing=spacing[1],
+                crown_radius=(0.7, 1.4) if spacing[1] < 2 else (0.8, 1.9), missing=0.08,
+                seed=11)
+    pts, truth = make_stand(s)
+    las = tmp_path / "s.las"
+    write_las(las, pts)
+    out = tmp_path / "o.gpkg"
+    r = _run("trees", las, out, "-spacing", "auto")
+    pos = truth["positions"]
+    n_true = pos["status"].size
+    # the truth's positions fill the data to its edge: ours stop half a spacing inside it
+    inner = n_true - _edge_positions(pos, s)
+    assert inner <= r["planting_positions"] <= n_true
+    gaps = gpd.read_file(out, layer="gaps")
+    kd = cKDTree(np.c_[pos["x"], pos["y"]])
+    d, k = kd.query(np.c_[gaps.geometry.x, gaps.geometry.y])
+    assert (d <= 0.3).all()  # every reported position is a planting position
+    st = pos["status"][k]
+    called = gaps["status"].to_numpy()
+    # missing calls are missing positions; suppressed calls hold a tree
+    assert (st[called == "missing"] == 0).mean() >= 0.95
+    assert (st[called == "suppressed"] > 0).mean() >= 0.8
+    # the true missing positions inside ours are reported missing or uncertain
+    miss = pos["status"] == 0
+    reported = np.zeros(n_true, bool)
+    reported[k[np.isin(called, ["missing", "uncertain"])]] = True
+    counted = _inside(pos, s)
+    assert reported[miss & counted].mean() >= 0.9
+    assert r["missing_trees"] == int((called == "missing").sum())
+    true_pct = 100.0 * (pos["status"] > 0).sum() / n_true
+    assert r["stocking_pct_low"] <= true_pct <= r["stocking_pct_high"]
+
+
+def _inside(pos, s, margin=None):
+    """The truth's positions at least ``margin`` (default half the larger spacing) inside the
+    stand's square."""
+    m = 0.5 * max(s.row_spacing, s.tree_spacing) if margin is None else margin
+    x0, y0 = s.origin
+    return ((pos["x"] >= x0 + m) & (pos["x"] <= x0 + s.width - m) & (pos["y"] >= y0 + m)
+            & (pos["y"] <= y0 + s.height - m))
+
+
+def _edge_positions(pos, s):
+    return int((~_inside(pos, s)).sum())

@@ -3,7 +3,7 @@ when the returns there are too few or too mixed to tell (als/positions.position_
 import numpy as np
 import pytest
 
-from lidartrees_gis.als.positions import (MISSING, SUPPRESSED, SUPPRESSED_SHARE, UNCERTAIN,
+from lidartrees_gis.plantation.positions import (MISSING, SUPPRESSED, SUPPRESSED_SHARE, UNCERTAIN,
                                           classify_gaps, position_status, wilson_interval)
 
 
@@ -66,11 +66,16 @@ def test_classify_gaps_counts_each_status_and_stocks_uncertain_by_their_share():
     # returns all one way is all but sure
     var0 = out["zones"][0].pop("stocked_var")
     assert 0.0 < var0 < 1e-3
+    # the resolved calls' spread alone: zone 0's, none of zone 1's uncertain positions
+    assert out["zones"][0].pop("resolved_var") == pytest.approx(var0, abs=1e-12)
     assert out["zones"][0] | {} == {"expected": 50, "stocked": 48, "missing": 1,
                                     "suppressed": 1, "uncertain": 0, "uncertain_stocked": 0.0}
     assert out["zones"][1]["uncertain"] == 2 and out["zones"][1]["missing"] == 0
     assert out["zones"][1]["stocked_var"] == pytest.approx(0.25 + 2 / 9, abs=1e-9)
+    assert out["zones"][1]["resolved_var"] == 0.0
     assert out["stocked_var"] == pytest.approx(var0 + 0.25 + 2 / 9, abs=1e-9)
+    assert out["resolved_var"] == pytest.approx(var0, abs=1e-12)
+    assert out["edge_unresolved"] == 0
 
 
 def test_each_stand_s_positions_are_read_at_its_own_spacing():
@@ -114,8 +119,8 @@ def test_a_row_whose_end_trees_are_missing_runs_as_far_as_its_neighbours(azimuth
     # never pass them
     from shapely.geometry import Polygon
 
-    from lidartrees_gis.als.positions import row_spans
-    from lidartrees_gis.als.stocking import PlantingGrid
+    from lidartrees_gis.plantation.positions import row_spans
+    from lidartrees_gis.plantation.stocking import PlantingGrid
 
     grid = PlantingGrid(3.0, 2.0, azimuth, 500000.3, 7500000.7, 1.0)
     pts = [(0, 0), (120, 8), (128, 90), (20, 110), (-6, 50)] if shape == "convex" else \
@@ -134,9 +139,15 @@ def test_a_row_whose_end_trees_are_missing_runs_as_far_as_its_neighbours(azimuth
         at_end = t_last[k] - np.arange(m) if k % 2 else t_first[k] + np.arange(m)
         keep &= ~((j == rows[k]) & np.isin(i, at_end))
         n_cut[k] = m
-    r, first, last = row_spans(grid, x[keep], y[keep])
+    r, first, last, first_out, last_out = row_spans(grid, x[keep], y[keep])
     assert np.array_equal(r, rows)
     assert (first >= t_first).all() and (last <= t_last).all()  # nothing beyond the planting
+    # the reach, where an empty position is either a missing tree or no planting: one or two
+    # positions beyond each end, out to the true end on the straight parts of the edge
+    assert ((first - first_out >= 1) & (first - first_out <= 2)).all()
+    assert ((last_out - last >= 1) & (last_out - last <= 2)).all()
+    held = (first_out <= t_first) & (last_out >= t_last)
+    assert held.mean() >= 0.7
     short = (first - t_first) + (t_last - last)
     assert short.max() <= 3 and short.sum() < sum(n_cut.values())
     recovered = sum(n_cut.values()) - short.sum()
@@ -144,7 +155,7 @@ def test_a_row_whose_end_trees_are_missing_runs_as_far_as_its_neighbours(azimuth
 
 
 def test_row_ends_from_neighbours_adds_nothing_to_an_intact_edge():
-    from lidartrees_gis.als.positions import row_ends_from_neighbours
+    from lidartrees_gis.plantation.positions import row_ends_from_neighbours
 
     rows = np.arange(40)
     for slope in (0.0, 0.37, 1.0, 1.7, 4.2):
@@ -156,3 +167,39 @@ def test_row_ends_from_neighbours_adds_nothing_to_an_intact_edge():
             gone[[9, 30]] -= 3  # three end trees missing in two rows: some come back
             ends = row_ends_from_neighbours(rows, gone)
             assert (ends <= last).all() and (ends[[9, 30]] > gone[[9, 30]]).all()
+
+
+def test_the_stocking_interval_spans_every_way_the_unresolved_positions_could_go():
+    from lidartrees_gis.plantation.stockreport import STOCKING_Z, stocking_fields
+
+    st = {"expected": 100, "stocked": 90, "suppressed": 2, "missing": 4, "uncertain": 4,
+          "uncertain_stocked": 2.0, "resolved_var": 0.0, "edge_unresolved": 2, "extra": 0,
+          "planted_area_ha": 0.06}
+    f = stocking_fields((3, 2), 10.0, st)
+    # every uncertain position empty and of the 2 empty positions beyond rows' ends as many
+    # missing trees as a 95 % binomial count at the stand's 8 % missing or uncertain allows
+    # (1): 92 of 101; every uncertain position stocked: 96 of 100; the point counts each by
+    # its share
+    assert f["stocking_pct"] == pytest.approx(94.0)
+    assert f["stocking_pct_low"] == pytest.approx(100 * 92 / 101)
+    assert f["stocking_pct_high"] == pytest.approx(96.0)
+    # many row ends: about their 8 %, not all of them
+    f = stocking_fields((3, 2), 10.0, {**st, "edge_unresolved": 200})
+    assert 100 * 92 / 130 < f["stocking_pct_low"] < 100 * 92 / 115
+    # the resolved calls' spread widens both ends, within what the positions allow
+    f = stocking_fields((3, 2), 10.0, {**st, "resolved_var": 1.0, "edge_unresolved": 0})
+    assert f["stocking_pct_low"] == pytest.approx(92 - STOCKING_Z)
+    assert f["stocking_pct_high"] == pytest.approx(96 + STOCKING_Z)
+    f = stocking_fields((3, 2), 10.0, {**st, "stocked": 96, "missing": 0, "resolved_var": 4.0})
+    assert f["stocking_pct_high"] == 100.0
+
+
+def test_row_spans_of_tops_on_no_position_are_empty_in_every_part():
+    # tops that lie on no position (a stand's few tops, all off its lattice): no row, in each
+    # of the five parts the stocking reads (a run failed on three)
+    from lidartrees_gis.plantation.positions import row_spans
+    from lidartrees_gis.plantation.stocking import PlantingGrid
+
+    g = PlantingGrid(3.0, 2.0, 0.0, 0.0, 0.0, 1.0)
+    span = row_spans(g, np.array([0.9, 2.1]), np.array([0.7, 3.1]))
+    assert len(span) == 5 and all(a.size == 0 for a in span)

@@ -66,7 +66,7 @@ def test_layer_styles_update_time_is_iso_8601(stand_las, tmp_path):
 
 
 def test_row_azimuths_are_one_axis_in_0_180():
-    from lidartrees_gis.als.stocking import axial_round, stocking_fields
+    from lidartrees_gis.plantation.stocking import axial_round, stocking_fields
 
     for a, want in ((179.96, 0.0), (-0.04, 0.0), (180.0, 0.0), (359.97, 0.0), (0.04, 0.0),
                     (145.04, 145.0), (-35.0, 145.0), (179.9, 179.9), (179.95, 0.0)):

@@ -2,6 +2,7 @@
 the stands layer, its CSV, field descriptions and style, tiled = untiled per stand, bad stand
 files. The two-stand file: stand T-01 3 x 2 m with rows north-south, stand T-02 3 x 2 m with
 rows at 145° (the generator's stand turned by 35°), 5 % missing trees, 12 points/m²."""
+import re
 import sqlite3
 import warnings
 
@@ -190,7 +191,7 @@ def test_stands_in_another_crs_are_reprojected_and_said_so(two_stands, capsys):
 
 
 def test_bad_stand_files_are_named(two_stands, tmp_path, capsys):
-    from lidartrees_gis.als.stands import load_stands
+    from lidartrees_gis.plantation.stands import load_stands
 
     crs = CRS.from_epsg(31984)
     bow = shapely.Polygon([(OX, OY), (OX + 80, OY + 80), (OX + 80, OY), (OX, OY + 80)])
@@ -242,7 +243,7 @@ def test_planting_lattice_found_from_tops_on_a_chm_grid(rows, trees, azimuth):
     """Tops sit on CHM cells (0.3 m): the directions between neighbours 2.5 m apart come in
     7° steps, and the histogram's peak was 5.5° off the rows (a 3.5 x 2.5 m stand at 115° was
     read as 3.61 x 2.61 m and no lattice was found)."""
-    from lidartrees_gis.als.stocking import detect_planting
+    from lidartrees_gis.plantation.stocking import detect_planting
 
     rng = np.random.default_rng(5)
     a = np.radians(azimuth)
@@ -342,7 +343,27 @@ def test_understorey_floor_is_the_suppressed_trees_floor():
     """Plantation mode drops tops below the share of the dominant height that a suppressed tree
     must reach: one threshold, so a tree is never too low to be a tree yet high enough to be a
     suppressed one."""
-    from lidartrees_gis.als.positions import SUPPRESSED_HEIGHT
+    from lidartrees_gis.plantation.positions import SUPPRESSED_HEIGHT
     from lidartrees_gis.als.tile import UNDERSTOREY_HEIGHT
 
     assert UNDERSTOREY_HEIGHT == SUPPRESSED_HEIGHT
+
+
+def test_a_stand_beyond_the_points_is_said_in_words_never_nan(two_stands, tmp_path, capsys):
+    # a farm's stands file covers more than one delivery: a stand with no return prints why
+    # it has no figures, and its stands-layer row holds no tree
+    frame = two_stands["frame"]
+    far = gpd.GeoDataFrame({"Talhão": ["T-09"]}, geometry=[shapely.box(OX, OY + 200, OX + 80,
+                                                                      OY + 280)],
+                           crs="EPSG:31984")
+    path = tmp_path / "three.gpkg"
+    pd.concat([frame, far]).to_file(path, layer="talhoes")
+    out = tmp_path / "t.gpkg"
+    assert main(["trees", str(two_stands["las"]), str(out), "-stands", str(path),
+                 "-spacing", "3x2"]) == 0
+    text = capsys.readouterr().out
+    line = next(ln for ln in text.splitlines() if ln.startswith("stand T-09:"))
+    assert line == "stand T-09: no tree, 0.64 ha, outside the points"
+    assert not re.search(r"\bnan\b", text, re.I)
+    s = gpd.read_file(out, layer="stands").set_index("stand_id")
+    assert s.loc["T-09", "trees"] == 0 and s.loc["T-01", "trees"] > 900

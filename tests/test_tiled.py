@@ -634,7 +634,7 @@ def test_tiled_layers_are_complete_and_indexed(split_stand, tmp_path):
 def test_row_azimuths_of_tiles_average_as_an_axis():
     """Tiles reporting rows at 179.95 and 0.0 degrees (the same rows) gave a stand azimuth of
     90 (their median): azimuths of rows are axes, averaged on the doubled angle."""
-    from lidartrees_gis.als.stocking import axial_mean
+    from lidartrees_gis.plantation.stocking import axial_mean
 
     a = axial_mean([179.95, 179.95, 0.0, 0.0], [150, 150, 150, 150])
     assert min(a, 180 - a) < 0.05

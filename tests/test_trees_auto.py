@@ -11,7 +11,7 @@ from lidartrees_gis.cli import main
 from lidartrees_gis.als.tops import adaptive_maxima, local_maxima, treex_maxima
 from lidartrees_gis.report.evaluate import evaluate_trees, match_eysn
 from lidartrees_gis.grid import GridSpec
-from lidartrees_gis.als.stocking import fit_planting_grid, stocking
+from lidartrees_gis.plantation.stocking import fit_planting_grid, stocking
 from lidartrees_gis.als.trees import TreeParams, detect_trees, parse_spacing
 
 
@@ -388,7 +388,7 @@ def test_gap_tops_take_an_apex_return_at_an_empty_position_only():
     """A lower tree whose apex has no local maximum on the CHM (the CHM bridges to its taller
     neighbour) is found at its planting position from its apex return; a flank return, a
     return near a detected top and a low return are not."""
-    from lidartrees_gis.als.stocking import gap_tops
+    from lidartrees_gis.plantation.stocking import gap_tops
 
     res = 0.5
     spec = GridSpec(0, 20, res, 40, 40)
@@ -423,7 +423,7 @@ def test_plantation_mode_looks_again_at_empty_positions(tmp_path, monkeypatch):
     separation keeps the double tops out."""
     from pyproj import CRS as PCRS
 
-    import lidartrees_gis.als.stocking as stocking_mod
+    import lidartrees_gis.plantation.stocking as stocking_mod
     from lidartrees_gis.io.lasout import write_points
     from lidartrees_gis.als.chain import trees_run
     from lidartrees_gis.synthetic import CRS, StandParams, make_stand
@@ -502,7 +502,7 @@ def test_plantation_mode_warns_that_sparse_data_under_report_stocking(tmp_path, 
 
 
 def test_detect_planting_finds_the_lattice_of_a_stand_and_none_in_random_trees(stand):
-    from lidartrees_gis.als.stocking import detect_planting
+    from lidartrees_gis.plantation.stocking import detect_planting
 
     _, truth = stand
     g = detect_planting(truth["x"], truth["y"])
@@ -521,7 +521,7 @@ def test_detect_planting_gives_up_on_random_trees_before_any_fit(stand, monkeypa
     spread: about 13 % within 12 degrees of the commonest) are given up on before any lattice
     fit or period search; a stand's lattice is fitted first on PRE_FIT_TREES of its tops, then
     on all."""
-    from lidartrees_gis.als import stocking
+    from lidartrees_gis.plantation import stocking
 
     calls, refined = [], []
     fit = stocking.fit_planting_grid
@@ -587,7 +587,7 @@ def test_defaults_look_again_at_the_empty_positions_of_a_detected_lattice(tmp_pa
 def test_planting_grid_of_a_large_stand_is_fitted_on_a_sample():
     """62,500 trees: the grid is fitted on a fixed sample (bounded memory: the full angle x tree
     arrays would take several GB) and still lies on the stems; the lattice is found too."""
-    from lidartrees_gis.als.stocking import FIT_MAX_TREES, detect_planting
+    from lidartrees_gis.plantation.stocking import FIT_MAX_TREES, detect_planting
 
     rng = np.random.default_rng(4)
     i, j = np.meshgrid(np.arange(250), np.arange(250))

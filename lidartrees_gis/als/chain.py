@@ -34,7 +34,7 @@ from .area import AreaPlan, one_tile_area, plan_area
 from .sinks import (GpkgTreeLayers, QuickLook, Tally, TreeLayers, TreesSummary, TreesTable,
                     sidecar)
 from .surfaces import SurfaceOptions, box_surfaces
-from .stands import StandsTally, write_stand_csv
+from ..plantation.stands import StandsTally, write_stand_csv
 from .tile import tile_first_tops, tile_trees, warn_sparse_plantation
 from .trees import TreeParams, area_window_corner, auto_smoothing
 
@@ -219,7 +219,7 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
     stands : str, Path or GeoDataFrame, optional
         Stand (talhão) polygons (``PATH[:LAYER]``, any OGR source): every tree and gap gets its
         ``stand_id`` and a ``stands`` layer the per-stand figures (in plantation mode with each
-        stand's own lattice); see :func:`lidartrees_gis.als.stands.load_stands`.
+        stand's own lattice); see :func:`lidartrees_gis.plantation.stands.load_stands`.
     stand_id : str, optional
         The stands' id field (default: the first of ``stand_id``, ``talhao``, ... present).
     stand_csv : str or Path, optional
@@ -246,7 +246,7 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
     area = open_area(input, read)
     check_outputs(outputs, area.files, out.overwrite)
     if stands is not None:
-        from .stands import check_overlap, load_stands
+        from ..plantation.stands import check_overlap, load_stands
 
         stands = load_stands(stands, area.crs, stand_id)
         check_overlap(stands, area.extent, area.label())
@@ -319,7 +319,7 @@ def _area_grids(runner, area, p: TreeParams, plan: AreaPlan, surface, stands, pr
     lattice, so a stand's counts do not depend on the tiling (a lattice per tile shifted by a
     few centimetres counted the positions along the tiles' edges twice or not at all). Costs
     a first pass over the tiles' surfaces."""
-    from .positions import fit_stand_grids
+    from ..plantation.positions import fit_lattice, fit_stand_grids
 
     # labelled apart from the trees' tiles: nothing kept for -resume, and a tile set aside
     # (-on_error skip) is told as left out of the lattices
@@ -328,11 +328,11 @@ def _area_grids(runner, area, p: TreeParams, plan: AreaPlan, surface, stands, pr
     if not found:
         return {"all": None}
     x, y, z = (np.concatenate([np.asarray(r[k]) for r in found]) for k in ("x", "y", "zone"))
-    from .positions import add_anchors
+    from ..plantation.positions import add_anchors
     from .tile import number_regions, tile_canopy_spectra
 
     def spectra(keys):  # -spacing auto, stands whose tops show no lattice: their canopies
-        from .canopy_lattice import stand_spectrum
+        from ..plantation.canopy_lattice import stand_spectrum
 
         parts = {}
         for r in runner.map(tile_canopy_spectra, list(plan.tiles),
@@ -341,8 +341,16 @@ def _area_grids(runner, area, p: TreeParams, plan: AreaPlan, surface, stands, pr
                 parts.setdefault(k, []).append(v)
         return {k: stand_spectrum(v) for k, v in parts.items()}
 
+    def fits(jobs, spacing, cell):  # one stand's lattice per task, on the run's workers
+        out = list(runner.map(fit_lattice, jobs, (spacing, cell), ordered=True,
+                              label="lattice fit"))
+        if len(out) != len(jobs):  # -on_error skip left one out: no lattice is left unsaid
+            raise RuntimeError(f"{len(jobs) - len(out)} of {len(jobs)} stands' lattice fits "
+                               "failed")
+        return out
+
     grids = fit_stand_grids(x, y, z if stands is not None else None, p.spacing, whole=True,
-                            cell=plan.res, spectra=spectra)
+                            cell=plan.res, spectra=spectra, fits=fits)
     # where each stand's row and plant numbers start: made once here, for every tile
     zones = [-1] + ([] if stands is None else list(range(len(stands))))
     return add_anchors(grids, number_regions(stands, area.extent), plan.res, zones)
@@ -358,6 +366,14 @@ def _stands_result(stands, rows, tally, stand_csv) -> dict:
     if stand_csv:
         out["stand_csv"] = str(stand_csv)
     for r in rows:
+        if not r["trees"]:  # no figure to give (never a nan): say why
+            cover = r.get("data_cover_pct") or 0.0
+            out[f"stand {r['stand_id']}"] = (
+                f"no tree, {r['area_ha']:.2f} ha, " + ("outside the points" if not cover else
+                                                        f"{_round(cover, 1)} % covered by "
+                                                        "the points, no canopy above the "
+                                                        "trees' minimum height"))
+            continue
         text = (f"{r['trees']} trees, {_round(r['trees_per_ha'], 0):g}/ha, mean height "
                 f"{_round(r['mean_height'], 1)} m, dominant height "
                 f"{_round(r['dominant_height'], 1)} m, {r['area_ha']:.2f} ha")

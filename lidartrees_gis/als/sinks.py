@@ -14,8 +14,8 @@ import numpy as np
 from ..errors import OutputExistsError
 from ..io.styles import GPKG_DATASET_OPTIONS, LAYER_STYLES, embed_styles
 from .metrics import tree_ids
-from .positions import MISSING, STATUS_NAMES, UNCERTAIN
-from .stocking import STOCK_COUNTS, axial_mean, fitted_spacing, stocking_fields
+from ..plantation.positions import MISSING, STATUS_NAMES, UNCERTAIN
+from ..plantation.stocking import STOCK_COUNTS, axial_mean, fitted_spacing, stocking_fields
 from .tile import INT_FIELDS, TREE_FIELDS
 
 #: trees written to the GeoPackage together (one write per batch, not two per tile)
@@ -169,7 +169,7 @@ def stand_names(index, stand_ids) -> np.ndarray:
 def gap_arrays(st: dict, res: float, tile, stand_ids=None) -> dict:
     """The empty planting positions of one tile: ids from the position's cell in the global
     grid (as tree_id), row and plant numbers as a crew counts them
-    (:func:`lidartrees_gis.als.stocking.crew_numbers`, per stand: the same in every tiling)
+    (:func:`lidartrees_gis.plantation.stocking.crew_numbers`, per stand: the same in every tiling)
     and, with
     stands, the stand's id."""
     gx, gy = np.asarray(st["gaps_x"], float), np.asarray(st["gaps_y"], float)
@@ -364,7 +364,7 @@ class GpkgTreeLayers(TreeLayers):
                                     append=self.names["summary"] in self.existing)
             if stands is not None:
                 from ..io.vector import describe_columns
-                from .stands import field_docs
+                from ..plantation.stands import field_docs
 
                 self.stands = stands
                 frame = self._stands_frame()

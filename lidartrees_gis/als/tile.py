@@ -67,22 +67,22 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
 
     In plantation mode, with ``returns`` (the highest return above ground of each cell, from
     points), the empty planting positions are searched once more for a tree the tops finder
-    missed (:func:`lidartrees_gis.als.stocking.gap_tops`); the crowns are then grown again from
+    missed (:func:`lidartrees_gis.plantation.stocking.gap_tops`); the crowns are then grown again from
     all tops and ``result["gap_trees"]`` says how many were added. Without a spacing
     (:attr:`TreeParams.looks_for_lattice`), when the tops lie on a planting lattice
-    (:func:`lidartrees_gis.als.stocking.detect_planting`; ``result["planting_detected"]`` gives
+    (:func:`lidartrees_gis.plantation.stocking.detect_planting`; ``result["planting_detected"]`` gives
     its spacings), its empty positions get the same second look, without a stocking report.
     The cells of the added tops are ``result["gap_tops"]`` (rows, cols). ``within``: the box
     (a tile's core) whose positions the stocking counts; ``zone``: the stand of each cell
-    (:func:`lidartrees_gis.als.stands.zones`), each stand fitted its own lattice
-    (:func:`lidartrees_gis.als.positions.stocking_by_stand`); ``points``: every return's
+    (:func:`lidartrees_gis.plantation.stands.zones`), each stand fitted its own lattice
+    (:func:`lidartrees_gis.plantation.positions.stocking_by_stand`); ``points``: every return's
     ``(x, y, height above ground)``, to tell the empty positions holding a suppressed tree
-    from the missing ones (:func:`lidartrees_gis.als.positions.classify_gaps`); ``grids``:
-    each stand's lattice (:func:`lidartrees_gis.als.positions.fit_stand_grids`) when fitted on
+    from the missing ones (:func:`lidartrees_gis.plantation.positions.classify_gaps`); ``grids``:
+    each stand's lattice (:func:`lidartrees_gis.plantation.positions.fit_stand_grids`) when fitted on
     the whole area's tops (a run in tiles), by default fitted on the tops found here.
     """
-    from .positions import classify_gaps, stocking_by_stand
-    from .stocking import detect_planting, gap_tops
+    from ..plantation.positions import classify_gaps, stocking_by_stand
+    from ..plantation.stocking import detect_planting, gap_tops
 
     result = detect_trees(arr, spec, params, heights=heights)
     check_cancel(progress)
@@ -128,7 +128,7 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
                 t = result["table"]
                 st = stocking_by_stand(t["x"], t["y"], arr, spec, spacing, zone,
                                        min_height=params.min_height, within=within,
-                                       grids=st["grids"])
+                                       grids=st["grids"], masks=st.get("masks"))
     hd = _dominant_height(result, arr, spec, params)
     if given:  # the stocking report (gaps layer) is for plantation mode only
         result["stocking"] = classify_gaps(st, points, st["spacing"], hd, params.min_height)
@@ -136,7 +136,8 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
         if added:  # empty positions holding a suppressed tree (no stocking report)
             t = result["table"]
             st = stocking_by_stand(t["x"], t["y"], arr, spec, spacing, None,
-                                   min_height=params.min_height, grid=grid, within=within)
+                                   min_height=params.min_height, grid=grid, within=within,
+                                   masks=st.get("masks"))
         result["understorey"] = classify_gaps(st, points, st["spacing"], hd, params.min_height)
     result["gap_trees"] = added
     return result
@@ -157,11 +158,11 @@ def tile_first_tops(tile: Tile, area, params: TreeParams, plan: AreaPlan,
     """Plantation mode's first pass over an area in tiles: the tops the detection finds first
     in the tile's core (before plantation mode keeps one per position), with their stand
     index: ``{"x", "y", "zone"}``. Each stand's lattice is fitted on all of them
-    (:func:`lidartrees_gis.als.positions.fit_stand_grids`), as one file's run fits it on its
+    (:func:`lidartrees_gis.plantation.positions.fit_stand_grids`), as one file's run fits it on its
     own, so the tiles count positions on one lattice per stand."""
     from ..catalog.source import shared_cache
-    from .positions import top_zones
-    from .stands import zones
+    from ..plantation.positions import top_zones
+    from ..plantation.stands import zones
 
     # the surfaces are left in the run's shared folder (a run of several tiles on this
     # machine) for :func:`tile_trees`, which then need not compute them again
@@ -184,14 +185,14 @@ def tile_first_tops(tile: Tile, area, params: TreeParams, plan: AreaPlan,
 def tile_canopy_spectra(tile: Tile, area, params: TreeParams, plan: AreaPlan,
                         surface: SurfaceOptions, stands=None, keys=(), progress=None) -> dict:
     """``-spacing auto``'s second look at the stands whose tops show no lattice: the tile's
-    canopy spectrum (:func:`lidartrees_gis.als.canopy_lattice.canopy_spectrum`) over each stand of
+    canopy spectrum (:func:`lidartrees_gis.plantation.canopy_lattice.canopy_spectrum`) over each stand of
     ``keys`` (stand indices; ``"all"``: the whole tile) within the tile's core,
     ``{key: power}``; a stand's spectrum is their sum over its tiles
-    (:func:`lidartrees_gis.als.canopy_lattice.stand_spectrum`). Reads the surfaces :func:`tile_first_tops` kept, else makes
+    (:func:`lidartrees_gis.plantation.canopy_lattice.stand_spectrum`). Reads the surfaces :func:`tile_first_tops` kept, else makes
     them again."""
     from ..catalog.source import shared_cache
-    from .canopy_lattice import canopy_spectrum
-    from .stands import zones
+    from ..plantation.canopy_lattice import canopy_spectrum
+    from ..plantation.stands import zones
 
     cache = shared_cache()
     s = None
@@ -236,13 +237,13 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
                progress=None) -> dict:
     """The trees of one tile: the tops in its core with their whole crowns (WKB), their
     measures, the plantation counts of its core and, with ``send_chm``, its core CHM.
-    ``stands``: :class:`lidartrees_gis.als.stands.Stands`: each tree's stand, each stand's
+    ``stands``: :class:`lidartrees_gis.plantation.stands.Stands`: each tree's stand, each stand's
     cells and (plantation mode) its own lattice's counts in the core; ``grids``: each stand's
     lattice fitted on the whole area (:func:`tile_first_tops`). ``surfaces``: the tile's
     surfaces when they are already computed."""
     import shapely
 
-    from .stands import locate, stand_cells, zones
+    from ..plantation.stands import locate, stand_cells, zones
 
     prog = as_progress(progress)
     if surfaces is None and grids is not None:  # plantation mode's first pass kept them
@@ -289,7 +290,8 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
         **{k: st[k] for k in ("expected", "stocked", "missing", "extra", "planted_area_ha",
                               "gaps_x", "gaps_y", "gaps_row", "gaps_plant", "gaps_zone",
                               "numbering", "suppressed", "uncertain", "uncertain_stocked",
-                              "stocked_var", "gaps_status", "gaps_share", "gaps_returns")},
+                              "stocked_var", "resolved_var", "edge_unresolved", "gaps_status",
+                              "gaps_share", "gaps_returns")},
         "azimuth": st["grid"].azimuth if st["grid"] is not None else float("nan"),
         "spacing": st["spacing"]}
     out["stand_stocking"] = None if st is None else st["zones"]
@@ -314,7 +316,7 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
 
 def number_regions(stands, extent) -> dict:
     """Where plantation mode numbers each stand's rows and plants from
-    (:func:`lidartrees_gis.als.positions.add_anchors`): each stand's polygon, and the area's
+    (:func:`lidartrees_gis.plantation.positions.add_anchors`): each stand's polygon, and the area's
     extent for the positions outside every stand (or of an area without stands)."""
     import shapely
 
@@ -336,7 +338,7 @@ def _dominant_height(result, arr, spec, params: TreeParams) -> float:
 
 #: plantation mode: a top lower than this share of the dominant height is the understorey
 #: (shrubs, regrowth), not a planted tree; the same share a suppressed tree must reach
-#: (:data:`lidartrees_gis.als.positions.SUPPRESSED_HEIGHT`, kept equal by a test)
+#: (:data:`lidartrees_gis.plantation.positions.SUPPRESSED_HEIGHT`, kept equal by a test)
 UNDERSTOREY_HEIGHT = 0.3
 
 
@@ -346,7 +348,7 @@ def _one_per_position(result, st, arr, spec, params: TreeParams, heights, zone, 
     between rows), are dropped and the crowns grown again from the others (their crowns
     take the dropped tops' cells). Returns the result, its stocking and the lowest height a
     planted tree may have (for the trees looked for at the empty positions)."""
-    from .positions import stocking_by_stand
+    from ..plantation.positions import stocking_by_stand
 
     t = result["table"]
     hd = _dominant_height(result, arr, spec, params)
@@ -364,7 +366,8 @@ def _one_per_position(result, st, arr, spec, params: TreeParams, heights, zone, 
     result["dropped_tops"] = int(drop.sum())
     t = result["table"]
     st = stocking_by_stand(t["x"], t["y"], arr, spec, params.spacing, zone,
-                           min_height=params.min_height, within=within, grids=st["grids"])
+                           min_height=params.min_height, within=within, grids=st["grids"],
+                           masks=st.get("masks"))
     return result, st, lowest
 
 
@@ -392,12 +395,12 @@ def _planted_separation(result, arr, spec, params: TreeParams, heights, spacing)
 
 def _suppressed_trees(st, tile: Tile, res: float, stands) -> dict | None:
     """The suppressed trees of a tile's core, as tree rows: the empty planting positions
-    classified as holding one (:func:`lidartrees_gis.als.positions.classify_gaps`;
+    classified as holding one (:func:`lidartrees_gis.plantation.positions.classify_gaps`;
     ``suppressed`` = 1), and the uncertain ones whose share of crown returns leans to a tree
     (``suppressed`` = 2: the likelier answer, for a field check)."""
     from .metrics import tree_ids
-    from .positions import SUPPRESSED, SUPPRESSED_SHARE, UNCERTAIN
-    from .stands import locate
+    from ..plantation.positions import SUPPRESSED, SUPPRESSED_SHARE, UNCERTAIN
+    from ..plantation.stands import locate
 
     if st is None or "gaps_status" not in st:
         return None

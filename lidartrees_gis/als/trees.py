@@ -126,7 +126,7 @@ class TreeParams:
         model), set by the chains for every tile of an area; default the global grid's cell 0.
     planting : {"auto", "none"}, optional
         Without ``spacing``: ``auto`` looks for a planting lattice under the tops
-        (:func:`lidartrees_gis.als.stocking.detect_planting`) and, when there is one, looks again
+        (:func:`lidartrees_gis.plantation.stocking.detect_planting`) and, when there is one, looks again
         at its empty positions for trees the tops finder missed (each tile on its own, with its
         buffer); ``none`` does not. Default (None): ``auto`` for the default method
         (:attr:`default_method`), ``none`` with a seed method or configuration, which then

@@ -86,7 +86,7 @@ def metrics_run(input, output, *, res=20.0, plots=None, plot_id=None, plot_radiu
         zones.append(p.zones)
         names.append(("plot_metrics", "plot_id", p.ids, p.geoms, p.attrs))
     if stands:
-        from ..als.stands import load_stands
+        from ..plantation.stands import load_stands
 
         st = load_stands(stands, area.crs, stand_id)
         zones.append(Zones.of_polygons(st.geoms))

@@ -178,7 +178,7 @@ def volume_run(input, plots, output, *, stands, trees_table=None, plot_id=None,
     ``stands``, and ``tree_tops`` with the tree approach) or None (kept in memory); the
     volume raster and the report (JSON, PNG) are written beside it
     (:func:`side_outputs`)."""
-    from ..als.stands import load_stands
+    from ..plantation.stands import load_stands
     from ..als.surfaces import SurfaceOptions
     from . import outputs as outs
 

@@ -1,5 +1,5 @@
 """A planting lattice from the canopy heights' spectrum, where the tops of a closed canopy
-show none (:func:`canopy_planting`, for :func:`lidartrees_gis.als.positions.fit_stand_grids`
+show none (:func:`canopy_planting`, for :func:`lidartrees_gis.plantation.positions.fit_stand_grids`
 with ``-spacing auto``)."""
 from __future__ import annotations
 

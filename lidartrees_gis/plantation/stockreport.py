@@ -1,5 +1,6 @@
 """Plantation mode's summary fields: the counts a run sums over its tiles, the stocking with its
-95 % interval (or why there is none), and the row azimuths and spacings a summary reports."""
+interval over the unresolved positions (or why there is none), and the row azimuths and
+spacings a summary reports."""
 from __future__ import annotations
 
 import numpy as np
@@ -10,7 +11,7 @@ PLANTING_MIN_TREES = 100
 #: the plantation counts a run sums over its tiles (per area and per stand), read by
 #: :func:`stocking_fields`
 STOCK_COUNTS = ("expected", "stocked", "suppressed", "missing", "uncertain", "uncertain_stocked",
-                "stocked_var", "extra", "planted_area_ha")
+                "stocked_var", "resolved_var", "edge_unresolved", "extra", "planted_area_ha")
 
 
 #: the stocking interval's standard normal quantile (95 %)
@@ -19,14 +20,19 @@ STOCKING_Z = 1.959964
 
 def stocking_fields(spacing, azimuth: float, st: dict, *, tops: int | None = None) -> dict:
     """The summary fields of plantation mode from the counts of
-    :func:`lidartrees_gis.als.stocking.stocking` (``expected, stocked, missing, extra,
-    planted_area_ha``, and :func:`lidartrees_gis.als.positions.classify_gaps`'s
-    ``suppressed, uncertain, uncertain_stocked, stocked_var``; summed over the tiles).
+    :func:`lidartrees_gis.plantation.stocking.stocking` (``expected, stocked, missing, extra,
+    planted_area_ha``, and :func:`lidartrees_gis.plantation.positions.classify_gaps`'s
+    ``suppressed, uncertain, uncertain_stocked, resolved_var, edge_unresolved``; summed over
+    the tiles).
 
-    ``stocking_pct_low``, ``stocking_pct_high``: its 95 % interval from the empty positions'
-    calls (``stocked_var``), clipped to what the positions allow. With no lattice (``spacing``
-    None: ``-spacing auto`` found none) the stocking fields are empty (None) and ``lattice``
-    says why; ``tops``: the tree tops the lattice was looked for under."""
+    ``stocking_pct_low``, ``stocking_pct_high``: its interval over the positions the returns
+    could not resolve: the stocking were every uncertain position empty and the empty
+    positions just beyond the rows' ends (``edge_unresolved``) missing trees as far as
+    :func:`edge_missing` allows, and were every uncertain position stocked; each end widened
+    by the 95 % spread of the missing and suppressed calls (``resolved_var``), clipped to what
+    the positions allow. With no lattice (``spacing`` None: ``-spacing auto`` found none) the
+    stocking fields are empty (None) and ``lattice`` says why; ``tops``: the tree tops the
+    lattice was looked for under."""
     e = st["expected"]
     sup = st.get("suppressed", 0)
     unc = st.get("uncertain_stocked", 0.0)
@@ -44,9 +50,12 @@ def stocking_fields(spacing, azimuth: float, st: dict, *, tops: int | None = Non
                 "planted_per_ha": None, "planted_area_ha": st.get("planted_area_ha", 0.0)}
     sure = st["stocked"] + sup
     point = sure + unc
-    half = STOCKING_Z * float(np.sqrt(max(st.get("stocked_var", 0.0), 0.0)))
-    low = min(max(point - half, 0.0), point)
-    high = max(min(point + half, float(e)), point)
+    # every way the uncertain positions could go (each empty, each stocked), and as many
+    # positions beyond the rows' ends planted and missing as the stand's missing share allows;
+    # widened by the 95 % spread of the missing and suppressed calls
+    half = STOCKING_Z * float(np.sqrt(max(st.get("resolved_var", 0.0), 0.0)))
+    low = min(max(sure - half, 0.0) * e / (e + edge_missing(st)), point)
+    high = max(min(sure + st.get("uncertain", 0) + half, float(e)), point)
     return {"lattice": "found",
             "spacing": f"{spacing[0]:g}x{spacing[1]:g}", "row_azimuth": axial_round(azimuth),
             "planting_positions": e, "stocked_positions": st["stocked"],
@@ -57,6 +66,21 @@ def stocking_fields(spacing, azimuth: float, st: dict, *, tops: int | None = Non
             "stocking_pct_low": 100.0 * low / e, "stocking_pct_high": 100.0 * high / e,
             "planted_per_ha": 1e4 / (spacing[0] * spacing[1]),
             "planted_area_ha": st["planted_area_ha"]}
+
+
+def edge_missing(st: dict) -> float:
+    """How many of the empty positions just beyond the rows' ends (``edge_unresolved``: a
+    missing tree at a row's end, or no planting) may be missing trees: the upper end of a 95 %
+    interval of a binomial count at the stand's share of missing positions (a tree at a row's
+    end is as likely to be missing as any other), at most all of them."""
+    n = float(st.get("edge_unresolved", 0))
+    e = float(st.get("expected", 0))
+    if n <= 0 or e <= 0:
+        return 0.0
+    from scipy.stats import binom
+
+    m = min(max((st.get("missing", 0) + st.get("uncertain", 0)) / e, 0.0), 1.0)
+    return float(binom.ppf(0.975, int(n), m))
 
 
 def axial_round(azimuth, ndigits: int = 1) -> float:

@@ -461,11 +461,13 @@ FIELD_DOCS = {
     "stocking_pct": "planting positions with a tree (a top, or a suppressed tree; an uncertain "
                     "position counts by its share of crown returns) / planting positions of "
                     "the stand's lattice",
-    "stocking_pct_low": "lower end of the stocking's interval from the positions the returns "
-                        "leave unresolved (each uncertain one by its share, each missing or "
-                        "suppressed one by the chance that its returns mislead; 95 % of that "
-                        "spread only: not of detection errors, see docs/PLANTATION.md)",
-    "stocking_pct_high": "upper end of that interval",
+    "stocking_pct_low": "lower end of the stocking's interval over the positions the "
+                        "returns leave unresolved: every uncertain position empty and the "
+                        "empty positions beyond the rows' ends missing trees at the stand's "
+                        "missing share (95 %), less the 95 % spread of the missing and "
+                        "suppressed calls (not of detection errors, see docs/PLANTATION.md)",
+    "stocking_pct_high": "upper end of that interval: every uncertain position stocked, plus "
+                         "that spread",
     "lattice": "found, or why no planting lattice was found (its stocking fields then empty)",
     "planted_per_ha": "trees planted per hectare at this spacing (10,000 / (R x C))",
     "planted_area_ha": "the stand's planted area (canopy closed over gaps, ha)",

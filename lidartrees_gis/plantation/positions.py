@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .stocking import PlantingGrid, fit_planting_grid, stand_mask, stocking
+from .stocking import PlantingGrid, fit_planting_grid, mask_radius, stand_mask, stocking
 
 
 #: a stand with fewer tops than this takes the lattice fitted to all the tops instead of its own
@@ -35,7 +35,8 @@ def _canonical(tx, ty):
 
 
 def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None = None, *,
-                    zones=None, whole: bool = False, cell: float = 0.0, spectra=None) -> dict:
+                    zones=None, whole: bool = False, cell: float = 0.0, spectra=None,
+                    fits=None) -> dict:
     """The planting lattice of every stand: ``{zone: PlantingGrid or None}``, and ``"all"``
     (the lattice of all the tops: that of an area without stands, and of a stand with too few
     tops of its own) where one needs it or ``whole`` asks for it.
@@ -43,21 +44,23 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
     ``top_zone``: each top's stand index (-1 outside every stand), or None (no stands);
     ``zones``: the stands wanted (default: those of the tops). A stand is fitted on its own tops
     when it has :data:`STAND_FIT_MIN_TOPS` of them
-    (:data:`~lidartrees_gis.als.stocking.PLANTING_MIN_TREES` with ``spacing="auto"``, whose
-    spacing is found per stand by :func:`~lidartrees_gis.als.stocking.detect_planting`);
+    (:data:`~lidartrees_gis.plantation.stocking.PLANTING_MIN_TREES` with ``spacing="auto"``, whose
+    spacing is found per stand by :func:`~lidartrees_gis.plantation.stocking.detect_planting`);
     ``grid``: the lattice of all the tops when already found. The tops are taken in an order
     of their own (:func:`_canonical`), so a whole area's tops and the same tops gathered from
     its tiles give the same lattices: a run in tiles fits each stand once, from all its tiles'
     tops, and every tile counts its positions on that lattice. ``cell``: the CHM's cell size
-    (see :func:`~lidartrees_gis.als.stocking.detect_planting`). ``spectra``: with
+    (see :func:`~lidartrees_gis.plantation.stocking.detect_planting`). ``spectra``: with
     ``spacing="auto"``, a function that gives ``{key: canopy spectrum}``
-    (:func:`~lidartrees_gis.als.canopy_lattice.canopy_spectrum`) for a list of keys (stand indices,
+    (:func:`~lidartrees_gis.plantation.canopy_lattice.canopy_spectrum`) for a list of keys (stand indices,
     ``"all"``): a stand whose tops show no lattice (a closed canopy, where the tops of
     neighbours merge) is given the lattice of its canopy's spectrum
-    (:func:`~lidartrees_gis.als.canopy_lattice.canopy_planting`) when there is one.
+    (:func:`~lidartrees_gis.plantation.canopy_lattice.canopy_planting`) when there is one. ``fits``:
+    a function ``fits(jobs, spacing, cell)`` that gives :func:`fit_lattice` of each ``(x, y)``
+    of ``jobs``, in order (a run's workers, one stand each); by default fitted here in turn.
     """
     from .canopy_lattice import canopy_planting
-    from .stocking import PLANTING_MIN_TREES, detect_planting
+    from .stocking import PLANTING_MIN_TREES
 
     tx, ty = np.asarray(top_x, float), np.asarray(top_y, float)
     o = _canonical(tx, ty)
@@ -72,16 +75,20 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
         return (tx, ty) if k == "all" else (tx[zone == k], ty[zone == k])
 
     def fit(x, y):
-        return detect_planting(x, y, cell=cell) if auto else fit_planting_grid(x, y, *spacing)
+        return fit_lattice((x, y), spacing, cell)
 
     def enough(k):
         return tops_of(k)[0].size >= (PLANTING_MIN_TREES if auto else STAND_FIT_MIN_TOPS)
 
     own = {}
-    if top_zone is None or whole or grid is not None:
-        own["all"] = grid if grid is not None else fit(tx, ty)
-    for k in keys:
-        own[k] = fit(*tops_of(k)) if enough(k) else None
+    if grid is not None:
+        own["all"] = grid
+    todo = (["all"] if (top_zone is None or whole) and grid is None else []) + \
+        [k for k in keys if enough(k)]
+    found = fits([tops_of(k) for k in todo], spacing, cell) if fits is not None and todo \
+        else [fit(*tops_of(k)) for k in todo]
+    own.update(zip(todo, found))
+    own.update({k: None for k in keys if k not in own})
     if auto and spectra is not None:
         # where the tops show no lattice: the canopy's spectrum (one more pass for them only)
         lost = [k for k, g in own.items() if g is None and tops_of(k)[0].size >= 10]
@@ -113,12 +120,27 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
     return out
 
 
+def fit_lattice(tops, spacing, cell: float = 0.0):
+    """One stand's lattice under its ``tops`` ``(x, y)``: found
+    (:func:`~lidartrees_gis.plantation.stocking.detect_planting`, None where there is none) with
+    ``spacing="auto"``, else fitted at ``spacing`` ``(R, C)``."""
+    from .stocking import detect_planting
+
+    x, y = tops
+    if isinstance(spacing, str):
+        return detect_planting(x, y, cell=cell)
+    return fit_planting_grid(x, y, *spacing)
+
+
 def row_spans(grid: PlantingGrid, x, y) -> tuple:
     """Where a stand was planted, from its tops: each lattice row ``j`` that holds a top (within
-    half the smaller spacing of a position) and, in it, the first and last such position ``i``.
-    Returns ``(rows, first, last)`` (int64 arrays, rows sorted). Positions beyond a row's first
-    and last trees, and rows beyond the outermost planted ones, are no planting positions: a
-    stand polygon is drawn along roads and firebreaks, its first row some way inside it."""
+    half the smaller spacing of a position) and, in it, the first and last such position ``i``,
+    reaching as far as the neighbouring rows say (:func:`row_ends_from_neighbours`).
+    Returns ``(rows, first, last, first_out, last_out)`` (int64 arrays, rows sorted): positions
+    beyond a row's first and last trees, and rows beyond the outermost planted ones, are no
+    planting positions (a stand polygon is drawn along roads and firebreaks, its first row some
+    way inside it); those out to ``first_out`` and ``last_out`` (:func:`row_reach`) may be, and
+    count where a tree stands there."""
     fi, fj = grid.to_lattice(np.asarray(x, float), np.asarray(y, float))
     ri, rj = np.rint(fi), np.rint(fj)
     near = np.hypot((fi - ri) * grid.tree_spacing, (fj - rj) * grid.row_spacing) \
@@ -126,13 +148,15 @@ def row_spans(grid: PlantingGrid, x, y) -> tuple:
     ri, rj = ri[near].astype(np.int64), rj[near].astype(np.int64)
     if not rj.size:
         e = np.empty(0, np.int64)
-        return e, e, e
+        return e, e, e, e, e
     rows, inv = np.unique(rj, return_inverse=True)
     first = np.full(rows.size, np.iinfo(np.int64).max)
     last = np.full(rows.size, np.iinfo(np.int64).min)
     np.minimum.at(first, inv, ri)
     np.maximum.at(last, inv, ri)
-    return rows, -row_ends_from_neighbours(rows, -first), row_ends_from_neighbours(rows, last)
+    first = -row_ends_from_neighbours(rows, -first)
+    last = row_ends_from_neighbours(rows, last)
+    return rows, first, last, -row_reach(rows, -first), row_reach(rows, last)
 
 
 #: how many rows on each side :func:`row_ends_from_neighbours` reads a row's end from
@@ -176,14 +200,40 @@ def row_ends_from_neighbours(rows, last, depth: int = ROW_END_DEPTH):
     return np.where(reach < big, np.maximum(last, reach), last)
 
 
+#: how many positions beyond a row's end :func:`row_reach` may reach
+ROW_REACH_BEYOND = 2
+
+
+def row_reach(rows, last, depth: int = ROW_END_DEPTH, beyond: int = ROW_REACH_BEYOND):
+    """How far each row may run at most: the farthest of ``ceil((last[j - d] + last[j + d]) /
+    2)`` over ``d = 1..depth`` (the neighbours' mean end rounded out; on a straight edge it is
+    never short of the row's true end, its staircase included), at least one position and at
+    most ``beyond`` positions beyond ``last``. The positions between a row's end
+    (:func:`row_ends_from_neighbours`) and its reach are the ones the returns must settle: a
+    tree standing there (suppressed, uncertain) makes one a planting position; an empty one
+    is either a missing tree at the row's end or no planting, and the stocking's interval
+    counts it both ways (``edge_unresolved``). ``rows``, ``last``: as
+    :func:`row_ends_from_neighbours`'s (negate both ends for a row's first)."""
+    rows = np.asarray(rows, np.int64)
+    last = np.asarray(last, np.int64)
+    n = rows.size
+    reach = last + 1
+    for d in range(1, depth + 1):
+        lo = np.clip(np.searchsorted(rows, rows - d), 0, n - 1)
+        hi = np.clip(np.searchsorted(rows, rows + d), 0, n - 1)
+        both = (rows[lo] == rows - d) & (rows[hi] == rows + d)
+        reach = np.where(both, np.maximum(reach, -((-(last[lo] + last[hi])) // 2)), reach)
+    return np.minimum(reach, last + beyond)
+
+
 def lattice_anchor(grid: PlantingGrid, region, res: float) -> tuple:
     """Where a stand's row and plant numbers start: ``(j0, first)``, the first row of the
     lattice nodes that lie in ``region`` (a shapely polygon: the stand, or the area's extent)
     and each row's first node (``first[k]``: row ``j0 + k``; a huge value for a row with
-    none), in :func:`~lidartrees_gis.als.stocking.crew_numbers`'s signed indices. A node lies
+    none), in :func:`~lidartrees_gis.plantation.stocking.crew_numbers`'s signed indices. A node lies
     in the region when the centre of its cell (a grid of ``res`` aligned to multiples of
     ``res``, as every tile's) does, as a stand's cells are found
-    (:func:`lidartrees_gis.als.stands.zones`). It depends on the lattice and the region only,
+    (:func:`lidartrees_gis.plantation.stands.zones`). It depends on the lattice and the region only,
     so every tile of a run numbers a stand's trees alike."""
     import shapely
 
@@ -244,15 +294,16 @@ def top_zones(top_x, top_y, zone, spec) -> np.ndarray:
 
 def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: float = 2.0,
                       grid: PlantingGrid | None = None, within=None,
-                      grids: dict | None = None, regions: dict | None = None) -> dict:
+                      grids: dict | None = None, regions: dict | None = None,
+                      masks: dict | None = None) -> dict:
     """:func:`stocking` with a planting lattice fitted per stand.
 
     ``zone``: the stand index of every cell of ``spec`` (-1 outside every stand; see
-    :func:`lidartrees_gis.als.stands.zones`), or None for one stand. Each stand's positions are
+    :func:`lidartrees_gis.plantation.stands.zones`), or None for one stand. Each stand's positions are
     those of the lattice fitted to the tops inside it (:data:`STAND_FIT_MIN_TOPS`), in its part
     of the planted area; the cells outside every stand are one more zone, so the sums over the
     zones are the whole tile's. ``spacing``: ``(R, C)``, or ``"auto"``: each stand's spacing
-    found under its tops too (:func:`lidartrees_gis.als.stocking.detect_planting`; a stand
+    found under its tops too (:func:`lidartrees_gis.plantation.stocking.detect_planting`; a stand
     where none is found has no positions). Returns :func:`stocking`'s dict (counts summed, gaps
     and the tops' row and plant numbers of every zone) with ``gaps_zone``, ``spacing`` and
     ``zones`` (per zone index: ``expected, stocked, missing, extra, planted_area_ha, azimuth,
@@ -261,6 +312,9 @@ def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: flo
     here, on these tops); returned as ``grids``. ``regions``: ``{zone: polygon}`` (each
     stand's polygon, and -1: the area's extent) where the stands' row and plant numbers start
     (:func:`add_anchors`: kept in ``grids``, so that every tile numbers a stand alike).
+    ``masks``: the planted-area masks already made on this CHM (:func:`stand_mask`, by
+    :func:`~lidartrees_gis.plantation.stocking.mask_radius`; returned as ``masks`` for the next call
+    on the same CHM).
     """
     tx, ty = np.asarray(top_x, float), np.asarray(top_y, float)
     zoned = zone is not None and bool((np.asarray(zone) >= 0).any())
@@ -280,12 +334,13 @@ def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: flo
                                 spectra=spectra)
     if regions:
         add_anchors(grids, regions, spec.res, present)
-    masks = {}
+    masks = {} if masks is None else masks
 
     def planted(sp):
-        if sp not in masks:
-            masks[sp] = stand_mask(chm, spec.res, *sp, min_height=min_height)
-        return masks[sp]
+        r = mask_radius(spec.res, *sp)
+        if r not in masks:
+            masks[r] = stand_mask(chm, spec.res, *sp, min_height=min_height)
+        return masks[r]
 
     parts = {}
     for k in present:
@@ -295,12 +350,14 @@ def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: flo
             continue
         sp = (g.row_spacing, g.tree_spacing)
         span = grids.get(("span", k)) if k in grids else grids.get(("span", "all"))
+        mine = zone == k
         parts[k] = stocking(tx, ty, a, spec, sp, min_height=min_height, grid=g, within=within,
-                            planted=planted(sp) & (zone == k), own=own if zoned else None,
-                            anchor=grids.get(("anchor", k)), span=span)
+                            planted=planted(sp) & mine, own=own if zoned else None,
+                            anchor=grids.get(("anchor", k)), span=span,
+                            area=mine & np.isfinite(a))
         parts[k]["spacing"] = sp
     if not parts:
-        return {**_empty(tx.size), "grids": grids}
+        return {**_empty(tx.size), "grids": grids, "masks": masks}
     main = max(parts.values(), key=lambda p: p["expected"])
     out = {k: sum(p[k] for p in parts.values()) for k in ("expected", "stocked", "missing",
                                                            "extra", "planted_area_ha")}
@@ -326,7 +383,7 @@ def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: flo
                zones={k: {**{f: p[f] for f in ("expected", "stocked", "missing", "extra",
                                                "planted_area_ha", "spacing")},
                           "azimuth": p["grid"].azimuth} for k, p in parts.items()},
-               grids=grids)
+               grids=grids, masks=masks)
     return out
 
 
@@ -452,6 +509,7 @@ def classify_gaps(st: dict, points, spacing, dominant_height: float,
                         min_height, smaller=smaller)
     status, share = c["status"], c["share"]
     st = dict(st)
+    st["edge_unresolved"] = 0
     # a position just beyond a row's first or last tree (see :func:`row_spans`) is one only
     # where a tree stands: with nothing there, the row ends before it
     drop = np.asarray(st.get("gaps_edge", np.zeros(status.size, bool)), bool) & \
@@ -467,8 +525,10 @@ def classify_gaps(st: dict, points, spacing, dominant_height: float,
         status, share = c["status"], c["share"]
         n = int(drop.sum())
         st["expected"], st["missing"] = st["expected"] - n, st["missing"] - n
+        st["edge_unresolved"] = n
         if "zones" in st:  # (their missing counts are counted again below)
-            st["zones"] = {k: {**z, "expected": z["expected"] - int((drop & (gz == k)).sum())}
+            st["zones"] = {k: {**z, "expected": z["expected"] - int((drop & (gz == k)).sum()),
+                               "edge_unresolved": int((drop & (gz == k)).sum())}
                            for k, z in st["zones"].items()}
     st["gaps_status"] = status
     st["gaps_share"], st["gaps_returns"] = share, c["returns"]
@@ -504,7 +564,9 @@ def counts(status, share, returns=None) -> dict:
     ``uncertain_stocked`` (the uncertain positions' shares summed) and ``stocked_var``: the
     variance of the number of stocked positions among them (each uncertain one a Bernoulli of
     its share, each missing or suppressed one a Bernoulli of the chance that its call is wrong,
-    :func:`stocked_probability`), from which the stocking's interval is drawn."""
+    :func:`stocked_probability`); ``resolved_var``: that variance over the missing and
+    suppressed ones alone, the spread of the calls the stocking's interval adds to its
+    unresolved positions (:func:`~lidartrees_gis.plantation.stockreport.stocking_fields`)."""
     status = np.asarray(status)
     share = np.asarray(share, float)
     unc = status == UNCERTAIN
@@ -515,4 +577,5 @@ def counts(status, share, returns=None) -> dict:
     return {"missing": int((status == MISSING).sum()),
             "suppressed": int((status == SUPPRESSED).sum()), "uncertain": int(unc.sum()),
             "uncertain_stocked": float(share[unc].sum()),
-            "stocked_var": float((p * (1.0 - p)).sum())}
+            "stocked_var": float((p * (1.0 - p)).sum()),
+            "resolved_var": float((p * (1.0 - p))[~unc].sum())}

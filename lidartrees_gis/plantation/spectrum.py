@@ -1,5 +1,5 @@
 """The planting lattice's first guess from the tops' spectrum (:func:`_spectral_guess`), for
-:func:`lidartrees_gis.als.stocking.detect_planting` where the neighbours' directions mislead."""
+:func:`lidartrees_gis.plantation.stocking.detect_planting` where the neighbours' directions mislead."""
 from __future__ import annotations
 
 import numpy as np
