@@ -203,3 +203,22 @@ def test_row_spans_of_tops_on_no_position_are_empty_in_every_part():
     g = PlantingGrid(3.0, 2.0, 0.0, 0.0, 0.0, 1.0)
     span = row_spans(g, np.array([0.9, 2.1]), np.array([0.7, 3.1]))
     assert len(span) == 5 and all(a.size == 0 for a in span)
+
+
+def test_an_empty_position_is_looked_at_with_its_own_stands_spacing():
+    # two stands of other spacings in one tile: an apex 0.65 m from an empty position of the
+    # 3.5 x 2.5 m stand is within its reach (0.3 x 2.5 m) but not within the 3 x 2 m one's
+    # (0.3 x 2 m); which lattice holds most of the tile must not decide it
+    from lidartrees_gis.grid import GridSpec
+    from lidartrees_gis.plantation.stocking import gap_tops
+
+    spec = GridSpec.from_bounds(0.0, 0.0, 20.0, 20.0, 0.1)
+    returns = np.full(spec.shape, np.nan)
+    r, c = spec.cell_index(np.array([10.66]), np.array([10.0]))  # a cell 0.65 m away
+    returns[r[0], c[0]] = 15.0
+    chm = np.where(np.isfinite(returns), returns, 3.0)
+    args = (np.array([10.0]), np.array([10.0]), returns, chm, spec, (3.0, 2.0))
+    kw = dict(top_x=np.array([2.0]), top_y=np.array([2.0]))
+    assert gap_tops(*args, **kw)[0].size == 0
+    rows, cols = gap_tops(*args, **kw, smaller=np.array([2.5]))
+    assert (rows.tolist(), cols.tolist()) == ([r[0]], [c[0]])

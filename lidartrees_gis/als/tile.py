@@ -114,7 +114,8 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
     # tree at a position just beyond the core may stand inside it
     if returns is not None and st["look_x"].size and st.get("spacing") is not None:
         rows, cols = gap_tops(st["look_x"], st["look_y"], returns, result["smoothed"], spec,
-                              st["spacing"], top_x=t["x"], top_y=t["y"], min_height=lowest)
+                              st["spacing"], top_x=t["x"], top_y=t["y"], min_height=lowest,
+                              smaller=_own_spacing(st))
         added = int(rows.size)
         if added:
             check_cancel(progress)
@@ -141,6 +142,17 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
         result["understorey"] = classify_gaps(st, points, st["spacing"], hd, params.min_height)
     result["gap_trees"] = added
     return result
+
+
+def _own_spacing(st: dict):
+    """The smaller spacing of each empty position's own stand lattice (``look_zone``), or None
+    where the tile holds one lattice: a stand's positions are looked at alike whichever
+    stand's lattice holds most of the tile."""
+    zones, zone = st.get("zones") or {}, st.get("look_zone")
+    own = {k: min(z["spacing"]) for k, z in zones.items() if z.get("spacing")}
+    if zone is None or len(set(own.values())) < 2:
+        return None
+    return np.array([own.get(int(k), min(st["spacing"])) for k in zone], float)
 
 
 def _empty_trees(tile: Tile, res: float) -> dict:

@@ -22,7 +22,7 @@ def _empty(n_tops: int) -> dict:
             "gaps_x": e, "gaps_y": e, "gaps_i": e.astype(np.int64), "gaps_j": e.astype(np.int64),
             "gaps_row": e.astype(np.int64), "gaps_plant": e.astype(np.int64),
             "gaps_edge": np.zeros(0, bool), "look_x": e,
-            "look_y": e,
+            "look_y": e, "look_zone": e.astype(np.int64),
             "gaps_zone": e.astype(np.int64), "tops_row": z, "tops_plant": z.copy(),
             "shares": np.zeros(n_tops, bool),
             "numbering": "", "zones": {}}
@@ -364,6 +364,8 @@ def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: flo
     cat = {k: np.concatenate([p[k] for p in parts.values()])
            for k in ("gaps_x", "gaps_y", "gaps_i", "gaps_j", "gaps_row", "gaps_plant",
                      "gaps_edge", "look_x", "look_y")}
+    cat["look_zone"] = np.concatenate([np.full(p["look_x"].size, k, np.int64)
+                                       for k, p in parts.items()])
     tops_row = np.zeros(tx.size, np.int64)
     tops_plant = np.zeros(tx.size, np.int64)
     shares = np.zeros(tx.size, bool)

@@ -373,7 +373,8 @@ GAP_CLEARANCE = 0.5
 
 def gap_tops(gaps_x, gaps_y, returns, chm_s, spec, spacing, *, top_x, top_y,
              min_height: float = 2.0, reach: float = GAP_REACH,
-             apex_radius: float = GAP_APEX_RADIUS, clearance: float = GAP_CLEARANCE):
+             apex_radius: float = GAP_APEX_RADIUS, clearance: float = GAP_CLEARANCE,
+             smaller=None):
     """Tops of trees at empty planting positions that the tops finder missed.
 
     In sparse data (a few points per m²) a tree lower than its in-row neighbour often has no
@@ -397,6 +398,10 @@ def gap_tops(gaps_x, gaps_y, returns, chm_s, spec, spacing, *, top_x, top_y,
         Row and tree spacing (m).
     top_x, top_y : array_like
         The detected tops.
+    smaller : array_like, optional
+        The smaller spacing of each position's own lattice, where stands of other spacings
+        share a tile (instead of ``spacing``'s): a stand's positions are looked at alike
+        whichever stand's lattice holds most of the tile.
 
     Returns
     -------
@@ -409,7 +414,8 @@ def gap_tops(gaps_x, gaps_y, returns, chm_s, spec, spacing, *, top_x, top_y,
     gx, gy = np.asarray(gaps_x, float), np.asarray(gaps_y, float)
     if gx.size == 0:
         return none
-    s = min(spacing)
+    own = np.full(gx.size, float(min(spacing))) if smaller is None else \
+        np.broadcast_to(np.asarray(smaller, float), gx.shape)
     a = np.asarray(returns, np.float64)
     finite = np.isfinite(a)
     a = np.where(finite, a, -np.inf)
@@ -421,17 +427,19 @@ def gap_tops(gaps_x, gaps_y, returns, chm_s, spec, spacing, *, top_x, top_y,
         return none
     cx, cy = spec.xy(rows, cols)
     tx, ty = np.asarray(top_x, float), np.asarray(top_y, float)
-    if tx.size:
-        d, _ = cKDTree(np.c_[tx, ty]).query(np.c_[cx, cy])
-        keep = d >= clearance * s
-        rows, cols, cx, cy = rows[keep], cols[keep], cx[keep], cy[keep]
-    if rows.size == 0:
-        return none
-    # per position, the highest candidate within reach
-    near = cKDTree(np.c_[cx, cy]).query_ball_point(np.c_[gx, gy], reach * s)
+    d = cKDTree(np.c_[tx, ty]).query(np.c_[cx, cy])[0] if tx.size else np.full(cx.size, np.inf)
     h = a[rows, cols]
-    pick = sorted({max(k, key=lambda i: (h[i], -i)) for k in near if k})
-    pick = np.asarray(pick, np.int64)
+    pick = set()
+    for s in np.unique(own):  # each lattice's positions at their own spacing
+        keep = np.nonzero(d >= clearance * s)[0]
+        at = own == s
+        if not keep.size:
+            continue
+        # per position, the highest candidate within reach
+        near = cKDTree(np.c_[cx[keep], cy[keep]]).query_ball_point(np.c_[gx[at], gy[at]],
+                                                                   reach * s)
+        pick |= {int(keep[max(k, key=lambda i: (h[keep[i]], -keep[i]))]) for k in near if k}
+    pick = np.asarray(sorted(pick), np.int64)
     return rows[pick], cols[pick]
 
 
