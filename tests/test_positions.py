@@ -210,7 +210,7 @@ def test_an_empty_position_is_looked_at_with_its_own_stands_spacing():
     # 3.5 x 2.5 m stand is within its reach (0.3 x 2.5 m) but not within the 3 x 2 m one's
     # (0.3 x 2 m); which lattice holds most of the tile must not decide it
     from lidartrees_gis.grid import GridSpec
-    from lidartrees_gis.plantation.stocking import gap_tops
+    from lidartrees_gis.plantation.gap_look import gap_tops
 
     spec = GridSpec.from_bounds(0.0, 0.0, 20.0, 20.0, 0.1)
     returns = np.full(spec.shape, np.nan)

@@ -388,7 +388,7 @@ def test_gap_tops_take_an_apex_return_at_an_empty_position_only():
     """A lower tree whose apex has no local maximum on the CHM (the CHM bridges to its taller
     neighbour) is found at its planting position from its apex return; a flank return, a
     return near a detected top and a low return are not."""
-    from lidartrees_gis.plantation.stocking import gap_tops
+    from lidartrees_gis.plantation.gap_look import gap_tops
 
     res = 0.5
     spec = GridSpec(0, 20, res, 40, 40)
@@ -423,7 +423,7 @@ def test_plantation_mode_looks_again_at_empty_positions(tmp_path, monkeypatch):
     separation keeps the double tops out."""
     from pyproj import CRS as PCRS
 
-    import lidartrees_gis.plantation.stocking as stocking_mod
+    import lidartrees_gis.plantation.gap_look as stocking_mod
     from lidartrees_gis.io.lasout import write_points
     from lidartrees_gis.als.chain import trees_run
     from lidartrees_gis.synthetic import CRS, StandParams, make_stand

@@ -67,7 +67,7 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
 
     In plantation mode, with ``returns`` (the highest return above ground of each cell, from
     points), the empty planting positions are searched once more for a tree the tops finder
-    missed (:func:`lidartrees_gis.plantation.stocking.gap_tops`); the crowns are then grown again from
+    missed (:func:`lidartrees_gis.plantation.gap_look.gap_tops`); the crowns are then grown again from
     all tops and ``result["gap_trees"]`` says how many were added. Without a spacing
     (:attr:`TreeParams.looks_for_lattice`), when the tops lie on a planting lattice
     (:func:`lidartrees_gis.plantation.stocking.detect_planting`; ``result["planting_detected"]`` gives
@@ -82,7 +82,8 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
     the whole area's tops (a run in tiles), by default fitted on the tops found here.
     """
     from ..plantation.positions import classify_gaps, stocking_by_stand
-    from ..plantation.stocking import detect_planting, gap_tops
+    from ..plantation.gap_look import gap_tops
+    from ..plantation.stocking import detect_planting
 
     result = detect_trees(arr, spec, params, heights=heights)
     check_cancel(progress)

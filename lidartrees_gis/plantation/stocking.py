@@ -6,8 +6,8 @@ along a row (3 x 2 m in the seeds' clonal eucalyptus). :func:`fit_planting_grid`
 direction and the lattice offset that best explain the detected tops (the direction and
 phases that concentrate the tops' positions modulo the spacings, a circular-statistics fit);
 :func:`stocking` lays the lattice over the stand, gives each planting position the top nearest
-to it, and reports the positions left empty (missing trees) and the stocking percentage;
-:func:`gap_tops` looks once more at the empty positions for a tree the tops finder missed.
+to it, and reports the positions left empty (missing trees) and the stocking percentage
+(:mod:`.gap_look` looks once more at them for a tree the tops finder missed).
 """
 from __future__ import annotations
 
@@ -167,10 +167,9 @@ def stand_mask(chm, res: float, row_spacing: float, tree_spacing: float, *,
     canopy = np.isfinite(a) & (a >= min_height)
     r = mask_radius(res, row_spacing, tree_spacing)
     padded = np.pad(canopy, r + 1)
-    # a closing by the disc of radius r (cells), as distances: the dilation is within r of a
-    # canopy cell, its erosion farther than r from any cell outside it (squared distances of
-    # cells are whole numbers: the same cells as ndimage.binary_closing with the disc, in a
-    # time that does not grow with r)
+    # ndimage.binary_closing by the disc of radius r, as distances (whole squared numbers: the
+    # same cells, in a time that does not grow with r): within r of canopy, then farther than r
+    # from any cell outside that
     far = ndimage.distance_transform_edt(~padded) ** 2 > r * r + 0.5
     closed = ndimage.distance_transform_edt(~far) ** 2 > r * r + 0.5
     return ndimage.binary_fill_holes(closed[r + 1:-(r + 1), r + 1:-(r + 1)] | canopy)
@@ -360,87 +359,6 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
             "gaps_plant": plant_no[gaps], "gaps_edge": edge[gaps],
             "tops_row": tops_row, "tops_plant": tops_plant,
             "numbering": numbering, "shares": shares, "look_x": look_x, "look_y": look_y}
-
-
-#: plantation mode's second look at an empty planting position (:func:`gap_tops`): the apex may
-#: lie this share of the smaller spacing from the position ...
-GAP_REACH = 0.3
-#: ... and must be the highest return within this radius (m) ...
-GAP_APEX_RADIUS = 0.5
-#: ... and at least this share of the smaller spacing from every detected top
-GAP_CLEARANCE = 0.5
-
-
-def gap_tops(gaps_x, gaps_y, returns, chm_s, spec, spacing, *, top_x, top_y,
-             min_height: float = 2.0, reach: float = GAP_REACH,
-             apex_radius: float = GAP_APEX_RADIUS, clearance: float = GAP_CLEARANCE,
-             smaller=None):
-    """Tops of trees at empty planting positions that the tops finder missed.
-
-    In sparse data (a few points per m²) a tree lower than its in-row neighbour often has no
-    local maximum on the CHM: the narrow valley between the two crowns holds no return, and the
-    CHM rises straight from its apex to the neighbour. Its apex return is still the highest
-    return around it. At each empty position, the highest cell of ``returns`` within ``reach``
-    x the smaller spacing is taken when it is the highest return within ``apex_radius`` m, lies
-    at least ``clearance`` x the smaller spacing from every detected top, and both it and the
-    smoothed CHM there reach ``min_height``.
-
-    Parameters
-    ----------
-    gaps_x, gaps_y : array_like
-        The empty planting positions (:func:`stocking`'s ``gaps_x``, ``gaps_y``).
-    returns : (M, N) ndarray of float
-        Highest return above ground of each cell, NaN where a cell has none.
-    chm_s : (M, N) ndarray of float
-        The smoothed CHM the crowns grow on.
-    spec : GridSpec
-    spacing : (float, float)
-        Row and tree spacing (m).
-    top_x, top_y : array_like
-        The detected tops.
-    smaller : array_like, optional
-        The smaller spacing of each position's own lattice, where stands of other spacings
-        share a tile (instead of ``spacing``'s): a stand's positions are looked at alike
-        whichever stand's lattice holds most of the tile.
-
-    Returns
-    -------
-    rows, cols : ndarray of int
-        Cells of the added tops, at most one per position.
-    """
-    from scipy.spatial import cKDTree
-
-    none = (np.empty(0, np.int64), np.empty(0, np.int64))
-    gx, gy = np.asarray(gaps_x, float), np.asarray(gaps_y, float)
-    if gx.size == 0:
-        return none
-    own = np.full(gx.size, float(min(spacing))) if smaller is None else \
-        np.broadcast_to(np.asarray(smaller, float), gx.shape)
-    a = np.asarray(returns, np.float64)
-    finite = np.isfinite(a)
-    a = np.where(finite, a, -np.inf)
-    size = 2 * int(round(apex_radius / spec.res)) + 1
-    apex = (a >= ndimage.maximum_filter(a, size=size, mode="constant", cval=-np.inf)) & finite
-    apex &= (a >= min_height) & (np.nan_to_num(np.asarray(chm_s, float), nan=-np.inf) >= min_height)
-    rows, cols = np.nonzero(apex)
-    if rows.size == 0:
-        return none
-    cx, cy = spec.xy(rows, cols)
-    tx, ty = np.asarray(top_x, float), np.asarray(top_y, float)
-    d = cKDTree(np.c_[tx, ty]).query(np.c_[cx, cy])[0] if tx.size else np.full(cx.size, np.inf)
-    h = a[rows, cols]
-    pick = set()
-    for s in np.unique(own):  # each lattice's positions at their own spacing
-        keep = np.nonzero(d >= clearance * s)[0]
-        at = own == s
-        if not keep.size:
-            continue
-        # per position, the highest candidate within reach
-        near = cKDTree(np.c_[cx[keep], cy[keep]]).query_ball_point(np.c_[gx[at], gy[at]],
-                                                                   reach * s)
-        pick |= {int(keep[max(k, key=lambda i: (h[keep[i]], -keep[i]))]) for k in near if k}
-    pick = np.asarray(sorted(pick), np.int64)
-    return rows[pick], cols[pick]
 
 
 #: a planting lattice is recognised under at least :data:`PLANTING_MIN_TREES` tops (defined with
