@@ -24,7 +24,6 @@ Usage: ``python benchmarks/bench_farm.py [--work /tmp/farm] [--density 10]``.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import subprocess
 import sys
@@ -36,7 +35,7 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from bench_stands2 import score_stand  # noqa: E402
+from bench_stands2 import score_stand, write_json  # noqa: E402
 
 DESIGNS = ((3.0, 2.0), (3.0, 1.5), (3.5, 2.5), (2.8, 2.8), (3.0, 3.0))
 ROAD = 10.0
@@ -274,12 +273,7 @@ def main(argv=None):
               "tile_m": a.tile, "cpus": os.cpu_count(), "generate_s": round(gen_s, 1),
               "runs": runs, "plantation_over_defaults": None if ratio is None
               else round(ratio, 3), "stands_scored": rows}
-    Path(a.out).parent.mkdir(parents=True, exist_ok=True)
-    tmp = a.out + ".tmp"
-    with open(tmp, "w") as f:
-        json.dump(result, f, indent=1, default=lambda o: o.item() if hasattr(o, "item")
-                  else str(o))
-    os.replace(tmp, a.out)
+    write_json(a.out, result)
     return 0
 
 

@@ -265,12 +265,17 @@ def _write(a, rows):
     result = {"benchmark": "bench_stands2", "family": "benchmarks/_family2.py",
               "seed": a.seed, "command": "lidartrees trees STAND.las OUT.gpkg -spacing auto "
               "-stands STANDS.gpkg -stand_csv OUT.csv -overwrite", "rows": rows}
-    Path(a.out).parent.mkdir(parents=True, exist_ok=True)
-    tmp = a.out + ".tmp"
+    write_json(a.out, result)
+
+
+def write_json(path, result: dict) -> None:
+    """A results file, written whole or not at all (numpy numbers as numbers)."""
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    tmp = str(path) + ".tmp"
     with open(tmp, "w") as f:
         json.dump(result, f, indent=1, default=lambda o: o.item() if hasattr(o, "item")
                   else str(o))
-    os.replace(tmp, a.out)
+    os.replace(tmp, path)
 
 
 if __name__ == "__main__":

@@ -81,7 +81,7 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
     each stand's lattice (:func:`lidartrees_gis.plantation.positions.fit_stand_grids`) when fitted on
     the whole area's tops (a run in tiles), by default fitted on the tops found here.
     """
-    from ..plantation.positions import classify_gaps, stocking_by_stand
+    from ..plantation.positions import classify_gaps, own_spacings, stocking_by_stand
     from ..plantation.gap_look import gap_tops
     from ..plantation.stocking import detect_planting
 
@@ -116,7 +116,7 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
     if returns is not None and st["look_x"].size and st.get("spacing") is not None:
         rows, cols = gap_tops(st["look_x"], st["look_y"], returns, result["smoothed"], spec,
                               st["spacing"], top_x=t["x"], top_y=t["y"], min_height=lowest,
-                              smaller=_own_spacing(st))
+                              smaller=own_spacings(st, st.get("look_zone")))
         added = int(rows.size)
         if added:
             check_cancel(progress)
@@ -143,17 +143,6 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
         result["understorey"] = classify_gaps(st, points, st["spacing"], hd, params.min_height)
     result["gap_trees"] = added
     return result
-
-
-def _own_spacing(st: dict):
-    """The smaller spacing of each empty position's own stand lattice (``look_zone``), or None
-    where the tile holds one lattice: a stand's positions are looked at alike whichever
-    stand's lattice holds most of the tile."""
-    zones, zone = st.get("zones") or {}, st.get("look_zone")
-    own = {k: min(z["spacing"]) for k, z in zones.items() if z.get("spacing")}
-    if zone is None or len(set(own.values())) < 2:
-        return None
-    return np.array([own.get(int(k), min(st["spacing"])) for k in zone], float)
 
 
 def _empty_trees(tile: Tile, res: float) -> dict:

@@ -183,9 +183,8 @@ def row_ends_from_neighbours(rows, last, depth: int = ROW_END_DEPTH):
         return last
     big = np.iinfo(np.int64).max
 
-    def at(d):  # index of row j + d and whether it exists
-        k = np.clip(np.searchsorted(rows, rows + d), 0, n - 1)
-        return k, rows[k] == rows + d
+    def at(d):
+        return _row_at(rows, d)
 
     reach = np.full(n, big)
     for d in range(1, depth + 1):
@@ -219,11 +218,25 @@ def row_reach(rows, last, depth: int = ROW_END_DEPTH, beyond: int = ROW_REACH_BE
     n = rows.size
     reach = last + 1
     for d in range(1, depth + 1):
-        lo = np.clip(np.searchsorted(rows, rows - d), 0, n - 1)
-        hi = np.clip(np.searchsorted(rows, rows + d), 0, n - 1)
-        both = (rows[lo] == rows - d) & (rows[hi] == rows + d)
+        (lo, has_lo), (hi, has_hi) = _row_at(rows, -d), _row_at(rows, d)
+        both = has_lo & has_hi
         reach = np.where(both, np.maximum(reach, -((-(last[lo] + last[hi])) // 2)), reach)
     return np.minimum(reach, last + beyond)
+
+
+def _row_at(rows, d: int) -> tuple:
+    """For each of the sorted ``rows``: the index of row ``j + d`` and whether it exists."""
+    k = np.clip(np.searchsorted(rows, rows + d), 0, max(rows.size - 1, 0))
+    return k, rows[k] == rows + d if rows.size else np.zeros(0, bool)
+
+
+def own_spacings(st: dict, zone):
+    """The smaller spacing of each position's own stand lattice (``zone``: each position's
+    zone in :func:`stocking_by_stand`'s ``zones``), or None without zones."""
+    if not st.get("zones") or zone is None:
+        return None
+    own = {k: min(z["spacing"]) for k, z in st["zones"].items() if z.get("spacing")}
+    return np.array([own.get(int(k), min(st["spacing"])) for k in zone], float)
 
 
 def lattice_anchor(grid: PlantingGrid, region, res: float) -> tuple:
@@ -503,10 +516,7 @@ def classify_gaps(st: dict, points, spacing, dominant_height: float,
     ones, ``suppressed`` and ``uncertain`` the others, per zone too; ``uncertain_stocked`` is
     the sum of the uncertain positions' shares, and ``stocking_pct`` counts the suppressed
     trees as stocking their positions and each uncertain position by its share."""
-    smaller = None
-    if st.get("zones") and "gaps_zone" in st:  # each stand's own spacing
-        own = {k: min(z["spacing"]) for k, z in st["zones"].items() if z.get("spacing")}
-        smaller = np.array([own.get(int(k), min(spacing)) for k in st["gaps_zone"]], float)
+    smaller = own_spacings({**st, "spacing": spacing}, st.get("gaps_zone"))  # each stand's own
     c = position_status(st["gaps_x"], st["gaps_y"], points, spacing, dominant_height,
                         min_height, smaller=smaller)
     status, share = c["status"], c["share"]
