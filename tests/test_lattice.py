@@ -165,14 +165,24 @@ def test_a_closed_canopy_shows_its_lattice_in_its_spectrum(rs, ts, az):
 
 
 def test_a_canopy_without_rows_has_no_spectral_lattice():
-    """The same crowns at random positions (as many, as wide): no lattice, in 5 draws."""
-    from lidartrees_gis.plantation.canopy_lattice import canopy_lattice_guess, canopy_spectrum
+    """The same crowns at random positions (as many, as wide): no lattice, in 5 draws, from
+    the heights' spectrum nor from the canopy's local maxima (which do show a lattice's)."""
+    from lidartrees_gis.grid import GridSpec
+    from lidartrees_gis.plantation.canopy_lattice import (canopy_lattice_guess, canopy_peaks,
+                                                          canopy_spectrum, peaks_lattice_guess)
 
     for seed in range(5):
         rng = np.random.default_rng(seed)
         n = int(120 * 120 / 6.0)
         chm, res = _canopy(rng.uniform(0, 120, n), rng.uniform(0, 120, n), 1.9, seed=seed)
         assert canopy_lattice_guess(canopy_spectrum(chm, res), res) is None
+        spec = GridSpec(0.0, 120.0, res, chm.shape[1], chm.shape[0])
+        peaks = canopy_peaks(chm, spec)
+        assert peaks[0].size > 1000 and peaks_lattice_guess(peaks, res) is None
+    x, y = _lattice(3.0, 2.0, 20.0)
+    chm, res = _canopy(x, y, radius=1.15 * np.sqrt(6.0) / 2)
+    g = peaks_lattice_guess(canopy_peaks(chm, GridSpec(0.0, 120.0, res, *chm.shape[::-1])), res)
+    assert g is not None and abs(g[1] - 3.0) <= 0.05 and abs(g[2] - 2.0) <= 0.05
 
 
 @pytest.mark.parametrize("azimuth,spacing", [(20.0, (3.0, 2.0)), (118.0, (3.0, 1.5))])

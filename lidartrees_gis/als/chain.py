@@ -339,7 +339,8 @@ def _area_grids(runner, area, p: TreeParams, plan: AreaPlan, surface, stands, pr
                             (area, p, plan, surface, stands, list(keys)), label="lattice tile"):
             for k, v in r.items():
                 parts.setdefault(k, []).append(v)
-        return {k: stand_spectrum(v) for k, v in parts.items()}
+        return {k: stand_spectrum([p for p, _ in v], [q for _, q in v])
+                for k, v in parts.items()}
 
     def fits(jobs, spacing, cell):  # one stand's lattice per task, on the run's workers
         out = list(runner.map(fit_lattice, jobs, (spacing, cell), ordered=True,

@@ -188,12 +188,13 @@ def tile_canopy_spectra(tile: Tile, area, params: TreeParams, plan: AreaPlan,
                         surface: SurfaceOptions, stands=None, keys=(), progress=None) -> dict:
     """``-spacing auto``'s second look at the stands whose tops show no lattice: the tile's
     canopy spectrum (:func:`lidartrees_gis.plantation.canopy_lattice.canopy_spectrum`) over each stand of
-    ``keys`` (stand indices; ``"all"``: the whole tile) within the tile's core,
-    ``{key: power}``; a stand's spectrum is their sum over its tiles
+    ``keys`` (stand indices; ``"all"``: the whole tile) within the tile's core, and its
+    local maxima there (:func:`lidartrees_gis.plantation.canopy_lattice.canopy_peaks`),
+    ``{key: (power, (x, y))}``; a stand's spectrum is their sum over its tiles
     (:func:`lidartrees_gis.plantation.canopy_lattice.stand_spectrum`). Reads the surfaces :func:`tile_first_tops` kept, else makes
     them again."""
     from ..catalog.source import shared_cache
-    from ..plantation.canopy_lattice import canopy_spectrum
+    from ..plantation.canopy_lattice import canopy_peaks, canopy_spectrum
     from ..plantation.stands import zones
 
     cache = shared_cache()
@@ -213,7 +214,8 @@ def tile_canopy_spectra(tile: Tile, area, params: TreeParams, plan: AreaPlan,
     for k in keys:
         mask = core if k == "all" or zone is None else core & (zone == k)
         if mask.any():
-            out[k] = canopy_spectrum(s["chm"], spec.res, mask)
+            out[k] = (canopy_spectrum(s["chm"], spec.res, mask),
+                      canopy_peaks(s["chm"], spec, mask, params.min_height))
     return out
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .spectrum import MIN_PERIOD_CELLS, SPECTRAL_PERIODS
+from .spectrum import MIN_PERIOD_CELLS, SPECTRAL_PERIODS, _spectral_guess
 from .stocking import _sample, _spacing_along, fit_planting_grid
 
 
@@ -58,15 +58,38 @@ def canopy_spectrum(chm, res: float, mask=None) -> np.ndarray:
     return out
 
 
-def stand_spectrum(powers) -> dict:
+def canopy_peaks(chm, spec, mask=None, min_height: float = 2.0) -> tuple:
+    """``(x, y)`` of the canopy's local maxima (the highest cell of its 3 x 3, at least
+    ``min_height``) within ``mask``: where a closed canopy's tops still lie along its rows
+    when the heights' spectrum does not show them (:func:`peaks_lattice_guess`)."""
+    from scipy import ndimage
+
+    a = np.asarray(chm, float)
+    b = np.where(np.isfinite(a), a, -np.inf)
+    keep = (b == ndimage.maximum_filter(b, 3, mode="nearest")) & (b >= min_height)
+    if mask is not None:
+        keep &= np.asarray(mask, bool)
+    r, c = np.nonzero(keep)
+    x, y = spec.xy(r, c)
+    return np.asarray(x, float), np.asarray(y, float)
+
+
+def stand_spectrum(powers, peaks=None) -> dict:
     """The spectrum of a stand from its tiles' :func:`canopy_spectrum` (each over the tile's
     core, disjoint): ``power`` their sum and ``looks`` how many independent periodograms it
-    averages, ``(sum m)² / sum m²`` of their median powers ``m``."""
+    averages, ``(sum m)² / sum m²`` of their median powers ``m``; ``peaks``: the tiles'
+    :func:`canopy_peaks`, gathered (kept as ``peaks``)."""
+    out = {}
+    if peaks:
+        out["peaks"] = tuple(np.concatenate([np.asarray(p[i], float) for p in peaks])
+                             for i in (0, 1))
     powers = [np.asarray(p, float) for p in powers if p is not None and np.asarray(p).any()]
     if not powers:
-        return {"power": np.zeros((CANOPY_THETAS.size, CANOPY_FREQS.size)), "looks": 1.0}
+        return {"power": np.zeros((CANOPY_THETAS.size, CANOPY_FREQS.size)), "looks": 1.0,
+                **out}
     m = np.array([np.median(p[p > 0]) for p in powers])
-    return {"power": np.sum(powers, axis=0), "looks": float(m.sum() ** 2 / (m ** 2).sum())}
+    return {"power": np.sum(powers, axis=0), "looks": float(m.sum() ** 2 / (m ** 2).sum()),
+            **out}
 
 
 def _level(cells: int, chance: float, looks: float) -> float:
@@ -76,6 +99,37 @@ def _level(cells: int, chance: float, looks: float) -> float:
     from scipy.stats import gamma
 
     return float(gamma.isf(chance / cells, looks) / gamma.median(looks))
+
+
+def _first_axis(power, cell: float, looks: float):
+    """The spectrum's powers over their median per frequency, the frequencies looked at, and
+    the polar cell of the strongest peak when it passes :data:`CANOPY_CHANCE`'s first level;
+    None when none does."""
+    p = np.asarray(power, float)
+    keep = CANOPY_FREQS <= 1.0 / max(SPECTRAL_PERIODS[0], MIN_PERIOD_CELLS * cell)
+    if not keep.any() or not p.any():
+        return None
+    p = p[:, keep]
+    med = np.median(p, axis=0)
+    r = p / np.where(med > 0, med, np.inf)[None, :]
+    i, j = np.unravel_index(int(np.argmax(r)), r.shape)
+    if r[i, j] < _level(r.size, CANOPY_CHANCE[0], looks):
+        return None
+    return r, CANOPY_FREQS[keep], int(i), int(j)
+
+
+def peaks_lattice_guess(peaks, cell: float = 0.0):
+    """Row direction and spacings (as :func:`canopy_lattice_guess`) from the canopy's local
+    maxima ``peaks`` (:func:`canopy_peaks`), for a closed canopy whose heights hardly dip
+    between two tops of a row (the spectrum shows the rows only) and whose tops found merge
+    neighbours: the maxima still lie along the rows at the plant spacing. Their projections'
+    spectrum (:func:`~lidartrees_gis.plantation.spectrum._spectral_guess`) must be periodic
+    on two axes at right angles beyond chance; None otherwise. The same maxima whether made
+    whole or in tiles, so a run in tiles finds the same lattice."""
+    px, py = (np.asarray(v, float) for v in peaks)
+    if px.size < 10:
+        return None
+    return _spectral_guess(px - px.mean(), py - py.mean(), cell)
 
 
 def canopy_lattice_guess(power, cell: float = 0.0, looks: float = 1.0):
@@ -90,19 +144,11 @@ def canopy_lattice_guess(power, cell: float = 0.0, looks: float = 1.0):
     directions x frequencies reach with chance :data:`CANOPY_CHANCE`'s first, the strongest at
     right angles to it (within 1°) the second's. ``cell``: periods shorter than
     :data:`MIN_PERIOD_CELLS` cells are not looked at."""
-    p = np.asarray(power, float)
-    keep = CANOPY_FREQS <= 1.0 / max(SPECTRAL_PERIODS[0], MIN_PERIOD_CELLS * cell)
-    if not keep.any() or not p.any():
+    first = _first_axis(power, cell, looks)
+    if first is None:
         return None
-    p = p[:, keep]
-    freqs = CANOPY_FREQS[keep]
-    med = np.median(p, axis=0)
-    r = p / np.where(med > 0, med, np.inf)[None, :]
+    r, freqs, i, j = first
     n_t = CANOPY_THETAS.size
-    level1 = _level(r.size, CANOPY_CHANCE[0], looks)
-    i, j = np.unravel_index(int(np.argmax(r)), r.shape)
-    if r[i, j] < level1:
-        return None
     perp = (i + n_t // 2 + np.arange(-2, 3)) % n_t
     sub = r[perp]
     level2 = _level(sub.size, CANOPY_CHANCE[1], looks)
@@ -181,12 +227,33 @@ def canopy_planting(x, y, spectrum, cell: float = 0.0):
     (:func:`canopy_spectrum`): the direction and spacings of
     :func:`canopy_lattice_guess`, the lattice's offset (and the
     direction to 0.05°, within 1° of the spectrum's) fitted on the tops ``x, y`` (at least 10)
-    by :func:`fit_planting_grid`. None when the canopy is not periodic beyond chance, or the
-    tops do not gather on the lattice beyond chance (:data:`CANOPY_FIT_LEVEL`)."""
+    by :func:`fit_planting_grid`. Where that gives none and ``spectrum`` holds the canopy's
+    ``peaks`` (:func:`canopy_peaks`), the lattice comes from those
+    (:func:`peaks_lattice_guess`: the spectrum may show the rows only) and is fitted on
+    them. None when the canopy
+    is not periodic beyond chance, or the tops do not gather on the lattice beyond chance
+    (:data:`CANOPY_FIT_LEVEL`)."""
     if not isinstance(spectrum, dict):
         spectrum = {"power": spectrum, "looks": 1.0}
-    guess = canopy_lattice_guess(spectrum["power"], cell, spectrum.get("looks", 1.0))
-    if guess is None or np.asarray(x).size < 10:
+    looks = spectrum.get("looks", 1.0)
+    guess = canopy_lattice_guess(spectrum["power"], cell, looks)
+    g = None if guess is None else _fit_guess(x, y, guess)
+    if g is None and spectrum.get("peaks") is not None:
+        # the plants along the rows not in the heights, or the tops found (neighbours merged)
+        # not on the lattice: the canopy's local maxima, the positions it is then fitted on
+        px, py = (np.asarray(v, float) for v in spectrum["peaks"])
+        o = np.lexsort((py, px))  # in an order of their own: tiles' peaks as the whole's
+        px, py = px[o], py[o]
+        guess = peaks_lattice_guess((px, py), cell)
+        g = None if guess is None else _fit_guess(px, py, guess)
+    return g
+
+
+def _fit_guess(x, y, guess):
+    """:func:`canopy_planting`'s lattice on the positions ``x, y`` (at least 10) from a
+    spectral ``guess`` ``(azimuth, row, tree)``, or None when they do not gather on it beyond
+    chance."""
+    if np.asarray(x).size < 10:
         return None
     a, row, tree = guess
     x, y = np.asarray(x, float), np.asarray(y, float)

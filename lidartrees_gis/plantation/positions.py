@@ -337,10 +337,11 @@ def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: flo
     present = np.unique(zone[np.isfinite(a) & (a >= min_height)]).tolist()
     if grids is None:
         def spectra(keys):  # -spacing auto: the canopies of the stands whose tops show none
-            from .canopy_lattice import canopy_spectrum
+            from .canopy_lattice import canopy_peaks, canopy_spectrum
 
-            return {k: canopy_spectrum(a, spec.res, None if k == "all" else zone == k)
-                    for k in keys}
+            masks = {k: None if k == "all" else zone == k for k in keys}
+            return {k: {"power": canopy_spectrum(a, spec.res, masks[k]), "looks": 1.0,
+                        "peaks": canopy_peaks(a, spec, masks[k], min_height)} for k in keys}
 
         grids = fit_stand_grids(tx, ty, top_zone if zoned else None, spacing, grid,
                                 zones=present if zoned else None, cell=spec.res,

@@ -16,6 +16,23 @@ SPECTRAL_CHANCE = 1e-6
 MIN_PERIOD_CELLS = 2.0
 
 
+def projection_peak(dx, dy, theta: float, lo: float, hi: float) -> tuple:
+    """The strongest period of the positions ``dx, dy`` projected on the direction ``theta``
+    (radians, clockwise from north) among the frequencies ``lo``-``hi`` (cycles per metre):
+    ``(r, period)``, ``r`` the mean resultant length of the positions' phases at that period
+    (1: every position on one phase; about ``1 / sqrt(N)`` for ``N`` positions at random),
+    from their histogram in :data:`SPECTRAL_BIN` bins."""
+    p = dx * np.sin(theta) + dy * np.cos(theta)
+    n = int(np.ceil((p.max() - p.min()) / SPECTRAL_BIN)) + 1
+    h = np.bincount(((p - p.min()) / SPECTRAL_BIN).astype(np.int64), minlength=n)
+    size = 1 << int(np.ceil(np.log2(max(4 * n, 1024))))  # zero-padded: finer frequencies
+    f = np.fft.rfftfreq(size, SPECTRAL_BIN)
+    band = (f >= lo) & (f <= hi)
+    amp = np.abs(np.fft.rfft(h, size))[band] / p.size
+    k = int(np.argmax(amp))
+    return float(amp[k]), 1.0 / float(f[band][k])
+
+
 def _spectral_guess(dx, dy, cell: float = 0.0):
     """Row direction (radians) and the periods across and along the rows, from the power
     spectrum of the positions ``dx, dy`` projected on every direction (0.5° steps): the
@@ -43,15 +60,7 @@ def _spectral_guess(dx, dy, cell: float = 0.0):
     level = float(np.sqrt(np.log(cells / SPECTRAL_CHANCE) / max(dx.size, 1)))
 
     def spectrum(theta):
-        p = dx * np.sin(theta) + dy * np.cos(theta)
-        n = int(np.ceil((p.max() - p.min()) / SPECTRAL_BIN)) + 1
-        h = np.bincount(((p - p.min()) / SPECTRAL_BIN).astype(np.int64), minlength=n)
-        size = 1 << int(np.ceil(np.log2(max(4 * n, 1024))))  # zero-padded: finer frequencies
-        f = np.fft.rfftfreq(size, SPECTRAL_BIN)
-        band = (f >= lo) & (f <= hi)
-        amp = np.abs(np.fft.rfft(h, size))[band] / p.size
-        k = int(np.argmax(amp))
-        return float(amp[k]), 1.0 / float(f[band][k])
+        return projection_peak(dx, dy, theta, lo, hi)
 
     thetas = np.radians(np.arange(0.0, 180.0, 0.5))
     found = [spectrum(t) for t in thetas]
