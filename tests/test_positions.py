@@ -69,8 +69,15 @@ def test_classify_gaps_counts_each_status_and_stocks_uncertain_by_their_share():
     # the resolved calls' spread alone: zone 0's, none of zone 1's uncertain positions
     assert out["zones"][0].pop("resolved_var") == pytest.approx(var0, abs=1e-12)
     assert out["zones"][0] | {} == {"expected": 50, "stocked": 48, "missing": 1,
-                                    "suppressed": 1, "uncertain": 0, "uncertain_stocked": 0.0}
+                                    "missing_crowned": 0, "suppressed": 1, "uncertain": 0,
+                                    "uncertain_stocked": 0.0}
     assert out["zones"][1]["uncertain"] == 2 and out["zones"][1]["missing"] == 0
+    # a missing call with 1 of 12 returns at crown height: still missing, counted crowned
+    one = classify_gaps({**st, "gaps_x": gx[:2], "gaps_y": np.zeros(2), "missing": 2,
+                         "gaps_zone": np.zeros(2, int), "zones": {0: st["zones"][0]}},
+                        tuple(np.concatenate([p[i] for p in (parts[0], _disc(1, 12, cx=10.0))])
+                              for i in range(3)), (3.0, 2.0), 23.0)
+    assert list(one["gaps_status"]) == [SUPPRESSED, MISSING] and one["missing_crowned"] == 1
     assert out["zones"][1]["stocked_var"] == pytest.approx(0.25 + 2 / 9, abs=1e-9)
     assert out["zones"][1]["resolved_var"] == 0.0
     assert out["stocked_var"] == pytest.approx(var0 + 0.25 + 2 / 9, abs=1e-9)
@@ -192,6 +199,11 @@ def test_the_stocking_interval_spans_every_way_the_unresolved_positions_could_go
     assert f["stocking_pct_high"] == pytest.approx(96 + STOCKING_Z)
     f = stocking_fields((3, 2), 10.0, {**st, "stocked": 96, "missing": 0, "resolved_var": 4.0})
     assert f["stocking_pct_high"] == 100.0
+    # a missing call with a return at crown height near it may be a small tree under its
+    # neighbours' crowns: the upper end counts it stocked, the point and the lower end do not
+    f = stocking_fields((3, 2), 10.0, {**st, "missing_crowned": 3, "edge_unresolved": 0})
+    assert f["stocking_pct_high"] == pytest.approx(99.0)
+    assert (f["stocking_pct"], f["stocking_pct_low"]) == pytest.approx((94.0, 92.0))
 
 
 def test_row_spans_of_tops_on_no_position_are_empty_in_every_part():

@@ -294,6 +294,7 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
         **{k: st[k] for k in ("expected", "stocked", "missing", "extra", "planted_area_ha",
                               "gaps_x", "gaps_y", "gaps_row", "gaps_plant", "gaps_zone",
                               "numbering", "suppressed", "uncertain", "uncertain_stocked",
+                              "missing_crowned",
                               "stocked_var", "resolved_var", "edge_unresolved", "gaps_status",
                               "gaps_share", "gaps_returns")},
         "azimuth": st["grid"].azimuth if st["grid"] is not None else float("nan"),

@@ -574,6 +574,8 @@ def stocked_probability(k, n):
 
 def counts(status, share, returns=None) -> dict:
     """The empty positions' counts by status: ``missing, suppressed, uncertain``,
+    ``missing_crowned`` (the missing calls with a return at crown height near them: a small
+    tree under its neighbours' crowns is not ruled out there),
     ``uncertain_stocked`` (the uncertain positions' shares summed) and ``stocked_var``: the
     variance of the number of stocked positions among them (each uncertain one a Bernoulli of
     its share, each missing or suppressed one a Bernoulli of the chance that its call is wrong,
@@ -588,6 +590,7 @@ def counts(status, share, returns=None) -> dict:
     n = np.asarray(returns, float)
     p = np.where(unc, share, stocked_probability(np.round(share * n), n))
     return {"missing": int((status == MISSING).sum()),
+            "missing_crowned": int(((status == MISSING) & (share > 0)).sum()),
             "suppressed": int((status == SUPPRESSED).sum()), "uncertain": int(unc.sum()),
             "uncertain_stocked": float(share[unc].sum()),
             "stocked_var": float((p * (1.0 - p)).sum()),

@@ -10,8 +10,9 @@ PLANTING_MIN_TREES = 100
 
 #: the plantation counts a run sums over its tiles (per area and per stand), read by
 #: :func:`stocking_fields`
-STOCK_COUNTS = ("expected", "stocked", "suppressed", "missing", "uncertain", "uncertain_stocked",
-                "stocked_var", "resolved_var", "edge_unresolved", "extra", "planted_area_ha")
+STOCK_COUNTS = ("expected", "stocked", "suppressed", "missing", "missing_crowned", "uncertain",
+                "uncertain_stocked", "stocked_var", "resolved_var", "edge_unresolved", "extra",
+                "planted_area_ha")
 
 
 #: the stocking interval's standard normal quantile (95 %)
@@ -22,15 +23,17 @@ def stocking_fields(spacing, azimuth: float, st: dict, *, tops: int | None = Non
     """The summary fields of plantation mode from the counts of
     :func:`lidartrees_gis.plantation.stocking.stocking` (``expected, stocked, missing, extra,
     planted_area_ha``, and :func:`lidartrees_gis.plantation.positions.classify_gaps`'s
-    ``suppressed, uncertain, uncertain_stocked, resolved_var, edge_unresolved``; summed over
-    the tiles).
+    ``suppressed, uncertain, uncertain_stocked, missing_crowned, resolved_var,
+    edge_unresolved``; summed over the tiles).
 
     ``stocking_pct_low``, ``stocking_pct_high``: its interval over the positions the returns
     could not resolve: the stocking were every uncertain position empty and the empty
     positions just beyond the rows' ends (``edge_unresolved``) missing trees as far as
-    :func:`edge_missing` allows, and were every uncertain position stocked; each end widened
-    by the 95 % spread of the missing and suppressed calls (``resolved_var``), clipped to what
-    the positions allow. With no lattice (``spacing`` None: ``-spacing auto`` found none) the
+    :func:`edge_missing` allows, and were every uncertain position stocked and every missing
+    call with a return at crown height near it (``missing_crowned``: a small tree under its
+    neighbours' crowns is not ruled out there) a tree; each end widened by the 95 % spread
+    of the missing and suppressed calls (``resolved_var``), clipped to what the positions
+    allow. With no lattice (``spacing`` None: ``-spacing auto`` found none) the
     stocking fields are empty (None) and ``lattice`` says why; ``tops``: the tree tops the
     lattice was looked for under."""
     e = st["expected"]
@@ -55,7 +58,8 @@ def stocking_fields(spacing, azimuth: float, st: dict, *, tops: int | None = Non
     # widened by the 95 % spread of the missing and suppressed calls
     half = STOCKING_Z * float(np.sqrt(max(st.get("resolved_var", 0.0), 0.0)))
     low = min(max(sure - half, 0.0) * e / (e + edge_missing(st)), point)
-    high = max(min(sure + st.get("uncertain", 0) + half, float(e)), point)
+    high = max(min(sure + st.get("uncertain", 0) + st.get("missing_crowned", 0) + half,
+                   float(e)), point)
     return {"lattice": "found",
             "spacing": f"{spacing[0]:g}x{spacing[1]:g}", "row_azimuth": axial_round(azimuth),
             "planting_positions": e, "stocked_positions": st["stocked"],
