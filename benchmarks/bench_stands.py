@@ -65,8 +65,16 @@ def _stocking(r: dict, truth, gpkg) -> dict:
     pos = truth["positions"]
     inside = np.ones(pos["x"].size, bool)
     true_pct = 100.0 * (pos["status"] > 0).sum() / pos["x"].size
-    out = {"stocking_pct": round(float(r["stocking_pct"]), 2), "truth_stocking_pct":
+    if r.get("stocking_pct") is None:  # -spacing auto found no lattice
+        return {"lattice": r.get("lattice"), "truth_stocking_pct": round(true_pct, 2)}
+    low, high = float(r["stocking_pct_low"]), float(r["stocking_pct_high"])
+    out = {"lattice": r.get("lattice"), "spacing_found": r.get("spacing"),
+           "azimuth_found": r.get("row_azimuth"),
+           "stocking_pct": round(float(r["stocking_pct"]), 2), "truth_stocking_pct":
            round(true_pct, 2), "stocking_error": round(float(r["stocking_pct"]) - true_pct, 2),
+           "stocking_pct_low": round(low, 2), "stocking_pct_high": round(high, 2),
+           # the interval is reported to 0.01 points: the truth within it at that rounding
+           "truth_in_interval": bool(round(low, 2) <= round(true_pct, 2) <= round(high, 2)),
            "missing": int(r["missing_trees"]), "truth_missing": int((pos["status"] == 0).sum())}
     gaps = pyogrio.read_dataframe(gpkg, layer="gaps", read_geometry=False)
     out["suppressed"] = int(r.get("suppressed_trees") or 0)
@@ -108,13 +116,17 @@ def stand_runs(tmp: Path, specs) -> list:
         row["defaults"] = {**_acc(d["table"], truth), "seconds": round(time.perf_counter() - t0, 2)}
         p = trees(las, tmp / "p.gpkg", params=TreeParams(spacing=row["spacing"]))
         row["plantation"] = {**_acc(p["table"], truth), **_stocking(p, truth, tmp / "p.gpkg")}
+        a = trees(las, tmp / "a.gpkg", params=TreeParams(spacing="auto"))
+        row["auto"] = {**_acc(a["table"], truth), **_stocking(a, truth, tmp / "a.gpkg")}
         rows.append(row)
         print(f"{s.name:32s} defaults F {row['defaults']['f']:.3f}  plantation F "
               f"{row['plantation']['f']:.3f}  stocking {row['plantation']['stocking_pct']:.2f} "
               f"(truth {row['plantation']['truth_stocking_pct']:.2f})  true gaps "
               f"{row['plantation']['gaps_true_share']}  uncertain "
-              f"{row['plantation']['uncertain']} {row['plantation'].get('uncertain_truth', '')}",
-              flush=True)
+              f"{row['plantation']['uncertain']} {row['plantation'].get('uncertain_truth', '')}"
+              f"  auto: {row['auto'].get('spacing_found')} stocking "
+              f"{row['auto'].get('stocking_pct')} ({row['auto'].get('stocking_pct_low')}-"
+              f"{row['auto'].get('stocking_pct_high')})", flush=True)
     return rows
 
 
@@ -137,8 +149,8 @@ def two_stand_run(tmp: Path, density: float = 12.0) -> dict:
                                            else int(row[k]))
                                        for k in ("trees", "planting_positions", "missing_trees",
                                                  "suppressed_trees", "uncertain_positions",
-                                                 "stocking_pct",
-                                                 "row_azimuth")}
+                                                 "stocking_pct", "stocking_pct_low",
+                                                 "stocking_pct_high", "row_azimuth")}
                      for _, row in st.iterrows()}
         for _, row in st.iterrows():
             out[name][row["stand_id"]]["spacing"] = row["spacing"]

@@ -5,6 +5,7 @@ import pytest
 
 from lidartrees_gis.plantation.positions import (MISSING, SUPPRESSED, SUPPRESSED_SHARE, UNCERTAIN,
                                           classify_gaps, position_status, wilson_interval)
+from lidartrees_gis.plantation.table import Positions
 
 
 def test_wilson_interval_matches_its_formula():
@@ -53,12 +54,12 @@ def test_classify_gaps_counts_each_status_and_stocks_uncertain_by_their_share():
              _disc(4, 6, cx=30.0)]
     pts = tuple(np.concatenate([p[i] for p in parts]) for i in range(3))
     gx = np.array([0.0, 10.0, 20.0, 30.0])
-    st = {"expected": 100, "stocked": 96, "missing": 4, "gaps_x": gx, "gaps_y": np.zeros(4),
-          "gaps_zone": np.array([0, 0, 1, 1]),
+    st = {"expected": 100, "stocked": 96, "missing": 4,
+          "gaps": Positions(gx, np.zeros(4), zone=[0, 0, 1, 1]),
           "zones": {0: {"expected": 50, "stocked": 48, "missing": 2},
                     1: {"expected": 50, "stocked": 48, "missing": 2}}}
     out = classify_gaps(st, pts, (3.0, 2.0), 23.0)
-    assert list(out["gaps_status"]) == [SUPPRESSED, MISSING, UNCERTAIN, UNCERTAIN]
+    assert list(out["gaps"].status) == [SUPPRESSED, MISSING, UNCERTAIN, UNCERTAIN]
     assert (out["missing"], out["suppressed"], out["uncertain"]) == (1, 1, 2)
     assert out["uncertain_stocked"] == pytest.approx(3 / 6 + 4 / 6)
     assert out["stocking_pct"] == pytest.approx(96 + 1 + 3 / 6 + 4 / 6)
@@ -73,11 +74,11 @@ def test_classify_gaps_counts_each_status_and_stocks_uncertain_by_their_share():
                                     "uncertain_stocked": 0.0}
     assert out["zones"][1]["uncertain"] == 2 and out["zones"][1]["missing"] == 0
     # a missing call with 1 of 12 returns at crown height: still missing, counted crowned
-    one = classify_gaps({**st, "gaps_x": gx[:2], "gaps_y": np.zeros(2), "missing": 2,
-                         "gaps_zone": np.zeros(2, int), "zones": {0: st["zones"][0]}},
+    one = classify_gaps({**st, "gaps": Positions(gx[:2], np.zeros(2), zone=[0, 0]),
+                         "missing": 2, "zones": {0: st["zones"][0]}},
                         tuple(np.concatenate([p[i] for p in (parts[0], _disc(1, 12, cx=10.0))])
                               for i in range(3)), (3.0, 2.0), 23.0)
-    assert list(one["gaps_status"]) == [SUPPRESSED, MISSING] and one["missing_crowned"] == 1
+    assert list(one["gaps"].status) == [SUPPRESSED, MISSING] and one["missing_crowned"] == 1
     assert out["zones"][1]["stocked_var"] == pytest.approx(0.25 + 2 / 9, abs=1e-9)
     assert out["zones"][1]["resolved_var"] == 0.0
     assert out["stocked_var"] == pytest.approx(var0 + 0.25 + 2 / 9, abs=1e-9)
@@ -94,13 +95,13 @@ def test_each_stand_s_positions_are_read_at_its_own_spacing():
     r = np.r_[rng.uniform(0.52, 0.6, 6), rng.uniform(0.0, 0.3, 6)]  # crown returns farther out
     h = np.r_[np.full(6, 14.0), np.zeros(6)]
     pts = (r * np.cos(a), r * np.sin(a), h)
-    st = {"expected": 10, "stocked": 9, "missing": 1, "gaps_x": np.zeros(1),
-          "gaps_y": np.zeros(1), "gaps_zone": np.array([1]),
+    st = {"expected": 10, "stocked": 9, "missing": 1,
+          "gaps": Positions(np.zeros(1), np.zeros(1), zone=[1]),
           "zones": {0: {"expected": 5, "stocked": 5, "missing": 0, "spacing": (3.0, 2.0)},
                     1: {"expected": 5, "stocked": 4, "missing": 1, "spacing": (3.5, 2.5)}}}
     own = classify_gaps(st, pts, (3.0, 2.0), 23.0)
-    assert own["gaps_returns"][0] == 12 and own["gaps_share"][0] == pytest.approx(0.5)
-    assert own["gaps_status"][0] == UNCERTAIN
+    assert own["gaps"].returns[0] == 12 and own["gaps"].share[0] == pytest.approx(0.5)
+    assert own["gaps"].status[0] == UNCERTAIN
     tile_wide = position_status([0.0], [0.0], pts, (3.0, 2.0), 23.0)
     assert tile_wide["returns"][0] == 6 and tile_wide["status"][0] == MISSING
 
@@ -234,3 +235,17 @@ def test_an_empty_position_is_looked_at_with_its_own_stands_spacing():
     assert gap_tops(*args, **kw)[0].size == 0
     rows, cols = gap_tops(*args, **kw, smaller=np.array([2.5]))
     assert (rows.tolist(), cols.tolist()) == ([r[0]], [c[0]])
+
+
+def test_positions_are_one_table_whose_columns_keep_one_length():
+    """The planting positions travel as one table: a selection or a concatenation keeps every
+    column's rows together, and a column of another length is refused by name."""
+    t = Positions([0.0, 1.0, 2.0], [5.0, 6.0, 7.0], row=[1, 1, 2], zone=[0, 0, 1])
+    assert len(t) == 3 and t.columns() == ["x", "y", "row", "zone"]
+    sub = t.take(t.zone == 0)
+    assert list(sub.x) == [0.0, 1.0] and list(sub.row) == [1, 1] and sub.plant is None
+    both = Positions.concat([t, Positions([9.0], [9.0], row=[4])])
+    assert list(both.row) == [1, 1, 2, 4] and both.zone is None  # not in every part
+    assert list(t.column("plant", 0)) == [0, 0, 0] and t.row.dtype == np.int64
+    with pytest.raises(ValueError, match="'row' has 2 rows, not 3"):
+        Positions([0.0, 1.0, 2.0], [0.0, 1.0, 2.0], row=[1, 2])

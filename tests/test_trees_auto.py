@@ -197,7 +197,7 @@ def test_stocking_finds_the_missing_trees_of_a_stand(stand):
     # every gap is a planting position left empty in the stand, and every such position is a gap
     miss = np.c_[truth["_missing_x"], truth["_missing_y"]]
     inside = (miss[:, 0] > spec.left) & (miss[:, 1] > spec.top - spec.height * res)
-    dd, _ = cKDTree(miss[inside]).query(np.c_[st["gaps_x"], st["gaps_y"]])
+    dd, _ = cKDTree(miss[inside]).query(np.c_[st["gaps"].x, st["gaps"].y])
     assert st["missing"] == inside.sum() and (dd < 0.5).all()
     assert st["stocked"] == len(truth["x"]) and st["extra"] == 0
     assert st["stocking_pct"] == pytest.approx(100 * st["stocked"] / st["expected"])

@@ -16,6 +16,7 @@ from ..io.styles import GPKG_DATASET_OPTIONS, LAYER_STYLES, embed_styles
 from .metrics import tree_ids
 from ..plantation.positions import MISSING, STATUS_NAMES, UNCERTAIN
 from ..plantation.stocking import STOCK_COUNTS, axial_mean, fitted_spacing, stocking_fields
+from ..plantation.table import Positions
 from .tile import INT_FIELDS, TREE_FIELDS
 
 #: trees written to the GeoPackage together (one write per batch, not two per tile)
@@ -172,20 +173,20 @@ def gap_arrays(st: dict, res: float, tile, stand_ids=None) -> dict:
     (:func:`lidartrees_gis.plantation.stocking.crew_numbers`, per stand: the same in every tiling)
     and, with
     stands, the stand's id."""
-    gx, gy = np.asarray(st["gaps_x"], float), np.asarray(st["gaps_y"], float)
-    out = {"gap_id": tree_ids(gx, gy, res),
-           "row_number": np.asarray(st["gaps_row"], np.int64),
-           "plant_number": np.asarray(st["gaps_plant"], np.int64), "x": gx, "y": gy,
+    gaps = st["gaps"]
+    gx, gy = gaps.x, gaps.y
+    out = {"gap_id": tree_ids(gx, gy, res), "row_number": gaps.column("row", 0),
+           "plant_number": gaps.column("plant", 0), "x": gx, "y": gy,
            "tile": np.full(gx.size, "_".join(map(str, tile)), dtype=object)}
     # what stands at the position: nothing (missing, a gap), a suppressed tree under or
     # beside its neighbours' crowns (no top of its own), or either (uncertain: a field check);
     # crown_share: the share of the returns there at a suppressed tree's height, of `returns`
     out["status"] = np.asarray(STATUS_NAMES, dtype=object)[
-        np.asarray(st.get("gaps_status", np.zeros(gx.size, np.int8)), np.int64)]
-    out["crown_share"] = np.asarray(st.get("gaps_share", np.zeros(gx.size)), float)
-    out["returns"] = np.asarray(st.get("gaps_returns", np.zeros(gx.size)), np.int64)
+        gaps.column("status", 0).astype(np.int64)]
+    out["crown_share"] = gaps.column("share", 0.0)
+    out["returns"] = gaps.column("returns", 0)
     if stand_ids is not None:
-        out["stand_id"] = stand_names(st.get("gaps_zone", np.full(gx.size, -1)), stand_ids)
+        out["stand_id"] = stand_names(gaps.column("zone", -1), stand_ids)
     return out
 
 
@@ -203,7 +204,7 @@ class TreeLayers:
         if len(r["tree_id"]):
             self.parts.append(tree_arrays(r))
         st = r["stocking"]
-        if st is not None and len(st["gaps_x"]):
+        if st is not None and len(st["gaps"]):
             self.gaps.append(gap_arrays(st, r["res"], r["tile"], self.stand_ids))
 
     def finish(self, summary: dict, plantation: bool, stands=None) -> None:
@@ -322,7 +323,7 @@ class GpkgTreeLayers(TreeLayers):
         if flush or self.pending_rows >= BATCH_TREES:
             self.flush()
         st = r["stocking"]
-        if st is not None and len(st["gaps_x"]):
+        if st is not None and len(st["gaps"]):
             import shapely
 
             g = gap_arrays(st, r["res"], r["tile"], self.stand_ids)
@@ -353,8 +354,7 @@ class GpkgTreeLayers(TreeLayers):
         if plantation and self.names["gaps"] not in self.created | self.existing:
             import shapely
 
-            g = gap_arrays({"gaps_x": [], "gaps_y": [], "gaps_row": [], "gaps_plant": []}, 1.0,
-                           (), self.stand_ids)
+            g = gap_arrays({"gaps": Positions.empty()}, 1.0, (), self.stand_ids)
             self._raw(shapely.to_wkb(shapely.points(g["x"], g["y"])), g, self.names["gaps"],
                       "Point")
         with warnings.catch_warnings():
@@ -440,11 +440,12 @@ class QuickLook:
             self.sx.append(np.asarray(r["x"])[sup])  # no crown of their own: marked apart
             self.sy.append(np.asarray(r["y"])[sup])
         st = r.get("stocking")
-        if st is not None and len(st["gaps_x"]):
-            status = np.asarray(st.get("gaps_status", np.zeros(len(st["gaps_x"]))), int)
+        if st is not None and len(st["gaps"]):
+            gaps = st["gaps"]
+            status = gaps.column("status", MISSING)
             for xs, ys, code in ((self.gx, self.gy, MISSING), (self.ux, self.uy, UNCERTAIN)):
-                xs.append(np.asarray(st["gaps_x"], float)[status == code])
-                ys.append(np.asarray(st["gaps_y"], float)[status == code])
+                xs.append(gaps.x[status == code])
+                ys.append(gaps.y[status == code])
 
     def _paste(self, a, left, top) -> None:
         s, k = self.fine, self.k

@@ -113,10 +113,11 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
         t = result["table"]
     # the second look at every empty position of the tile, its core's or not: the apex of a
     # tree at a position just beyond the core may stand inside it
-    if returns is not None and st["look_x"].size and st.get("spacing") is not None:
-        rows, cols = gap_tops(st["look_x"], st["look_y"], returns, result["smoothed"], spec,
+    looks = st["looks"]
+    if returns is not None and len(looks) and st.get("spacing") is not None:
+        rows, cols = gap_tops(looks.x, looks.y, returns, result["smoothed"], spec,
                               st["spacing"], top_x=t["x"], top_y=t["y"], min_height=lowest,
-                              smaller=own_spacings(st, st.get("look_zone")))
+                              smaller=own_spacings(st, looks.zone))
         added = int(rows.size)
         if added:
             check_cancel(progress)
@@ -292,11 +293,12 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
     out["planting"] = r.get("planting_detected")
     out["stocking"] = None if st is None else {
         **{k: st[k] for k in ("expected", "stocked", "missing", "extra", "planted_area_ha",
-                              "gaps_x", "gaps_y", "gaps_row", "gaps_plant", "gaps_zone",
                               "numbering", "suppressed", "uncertain", "uncertain_stocked",
-                              "missing_crowned",
-                              "stocked_var", "resolved_var", "edge_unresolved", "gaps_status",
-                              "gaps_share", "gaps_returns")},
+                              "missing_crowned", "stocked_var", "resolved_var",
+                              "edge_unresolved")},
+        # what the gaps layer writes of the empty positions
+        "gaps": st["gaps"].with_columns(i=None, j=None, edge=None, height=None, tree_x=None,
+                                        tree_y=None),
         "azimuth": st["grid"].azimuth if st["grid"] is not None else float("nan"),
         "spacing": st["spacing"]}
     out["stand_stocking"] = None if st is None else st["zones"]
@@ -407,21 +409,21 @@ def _suppressed_trees(st, tile: Tile, res: float, stands) -> dict | None:
     from ..plantation.positions import SUPPRESSED, SUPPRESSED_SHARE, UNCERTAIN
     from ..plantation.stands import locate
 
-    if st is None or "gaps_status" not in st:
+    if st is None or st["gaps"].status is None:
         return None
-    gx, gy = np.asarray(st["gaps_tree_x"], float), np.asarray(st["gaps_tree_y"], float)
-    status = np.asarray(st["gaps_status"])
-    leans = (status == UNCERTAIN) & (np.asarray(st["gaps_share"]) >= SUPPRESSED_SHARE)
+    gaps = st["gaps"]
+    gx, gy = gaps.tree_x, gaps.tree_y
+    status = gaps.status
+    leans = (status == UNCERTAIN) & (gaps.share >= SUPPRESSED_SHARE)
     keep = ((status == SUPPRESSED) | leans) & tile.in_core(gx, gy)
     if not keep.any():
         return None
     n = int(keep.sum())
     zero = np.zeros(n)
     return {"tree_id": tree_ids(gx[keep], gy[keep], res), "x": gx[keep], "y": gy[keep],
-            "height": np.asarray(st["gaps_height"], float)[keep], "crown_area": zero,
+            "height": gaps.height[keep], "crown_area": zero,
             "crown_diameter": zero, "n_cells": zero.astype(np.int64),
-            "row_number": np.asarray(st["gaps_row"], np.int64)[keep],
-            "plant_number": np.asarray(st["gaps_plant"], np.int64)[keep],
+            "row_number": gaps.row[keep], "plant_number": gaps.plant[keep],
             "stand": locate(stands, gx[keep], gy[keep]),
             "suppressed": np.where(leans[keep], 2, 1).astype(np.int64)}
 

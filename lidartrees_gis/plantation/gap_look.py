@@ -31,7 +31,7 @@ def gap_tops(gaps_x, gaps_y, returns, chm_s, spec, spacing, *, top_x, top_y,
     Parameters
     ----------
     gaps_x, gaps_y : array_like
-        The empty planting positions (:func:`stocking`'s ``gaps_x``, ``gaps_y``).
+        The empty planting positions (``x, y`` of :func:`stocking`'s ``looks`` table).
     returns : (M, N) ndarray of float
         Highest return above ground of each cell, NaN where a cell has none.
     chm_s : (M, N) ndarray of float

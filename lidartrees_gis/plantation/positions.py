@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from .stocking import PlantingGrid, fit_planting_grid, mask_radius, stand_mask, stocking
+from .table import Positions
 
 
 #: a stand with fewer tops than this takes the lattice fitted to all the tops instead of its own
@@ -15,15 +16,13 @@ STAND_FIT_MIN_TOPS = 30
 
 def _empty(n_tops: int) -> dict:
     """:func:`stocking_by_stand`'s answer when no lattice was found (``-spacing auto``)."""
-    e = np.empty(0)
     z = np.zeros(n_tops, np.int64)
+    e = np.empty(0, np.int64)
     return {"grid": None, "spacing": None, "expected": 0, "stocked": 0, "missing": 0, "extra": 0,
             "planted_area_ha": 0.0, "stocking_pct": float("nan"), "planted_per_ha": float("nan"),
-            "gaps_x": e, "gaps_y": e, "gaps_i": e.astype(np.int64), "gaps_j": e.astype(np.int64),
-            "gaps_row": e.astype(np.int64), "gaps_plant": e.astype(np.int64),
-            "gaps_edge": np.zeros(0, bool), "look_x": e,
-            "look_y": e, "look_zone": e.astype(np.int64),
-            "gaps_zone": e.astype(np.int64), "tops_row": z, "tops_plant": z.copy(),
+            "gaps": Positions.empty().with_columns(i=e, j=e, row=e, plant=e,
+                                                   edge=np.zeros(0, bool), zone=e),
+            "looks": Positions.empty().with_columns(zone=e), "tops_row": z, "tops_plant": z.copy(),
             "shares": np.zeros(n_tops, bool),
             "numbering": "", "zones": {}}
 
@@ -318,7 +317,8 @@ def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: flo
     zones are the whole tile's. ``spacing``: ``(R, C)``, or ``"auto"``: each stand's spacing
     found under its tops too (:func:`lidartrees_gis.plantation.stocking.detect_planting`; a stand
     where none is found has no positions). Returns :func:`stocking`'s dict (counts summed, gaps
-    and the tops' row and plant numbers of every zone) with ``gaps_zone``, ``spacing`` and
+    and the tops' row and plant numbers of every zone; the ``gaps`` and ``looks`` tables with
+    each position's ``zone``) with ``spacing`` and
     ``zones`` (per zone index: ``expected, stocked, missing, extra, planted_area_ha, azimuth,
     spacing``); ``grid`` and ``spacing`` are those of the zone with the most positions.
     ``grids``: the lattices (:func:`fit_stand_grids`) when already fitted (by default fitted
@@ -375,11 +375,8 @@ def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: flo
     main = max(parts.values(), key=lambda p: p["expected"])
     out = {k: sum(p[k] for p in parts.values()) for k in ("expected", "stocked", "missing",
                                                            "extra", "planted_area_ha")}
-    cat = {k: np.concatenate([p[k] for p in parts.values()])
-           for k in ("gaps_x", "gaps_y", "gaps_i", "gaps_j", "gaps_row", "gaps_plant",
-                     "gaps_edge", "look_x", "look_y")}
-    cat["look_zone"] = np.concatenate([np.full(p["look_x"].size, k, np.int64)
-                                       for k, p in parts.items()])
+    cat = {key: Positions.concat(p[key].with_columns(zone=np.full(len(p[key]), k))
+                                 for k, p in parts.items()) for key in ("gaps", "looks")}
     tops_row = np.zeros(tx.size, np.int64)
     tops_plant = np.zeros(tx.size, np.int64)
     shares = np.zeros(tx.size, bool)
@@ -394,8 +391,6 @@ def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: flo
                tops_row=tops_row, tops_plant=tops_plant, shares=shares,
                planted_per_ha=1e4 / (R * C),
                stocking_pct=100.0 * out["stocked"] / e if e else float("nan"),
-               gaps_zone=np.concatenate([np.full(p["gaps_x"].size, k, np.int64)
-                                         for k, p in parts.items()]),
                zones={k: {**{f: p[f] for f in ("expected", "stocked", "missing", "extra",
                                                "planted_area_ha", "spacing")},
                           "azimuth": p["grid"].azimuth} for k, p in parts.items()},
@@ -511,31 +506,26 @@ def position_status(gaps_x, gaps_y, points, spacing, dominant_height: float,
 def classify_gaps(st: dict, points, spacing, dominant_height: float,
                   min_height: float = 2.0) -> dict:
     """:func:`stocking`'s (or :func:`stocking_by_stand`'s) result with each empty position
-    classified (:func:`position_status`; ``gaps_status``, ``gaps_share``, ``gaps_returns``;
-    ``gaps_height``: the heights of the trees that stand there, NaN at the others):
+    classified (:func:`position_status`: the ``gaps`` table's ``status, share, returns``,
+    and ``height, tree_x, tree_y`` of the trees that stand there, NaN at the others):
     ``missing`` counts only the missing
     ones, ``suppressed`` and ``uncertain`` the others, per zone too; ``uncertain_stocked`` is
     the sum of the uncertain positions' shares, and ``stocking_pct`` counts the suppressed
     trees as stocking their positions and each uncertain position by its share."""
-    smaller = own_spacings({**st, "spacing": spacing}, st.get("gaps_zone"))  # each stand's own
-    c = position_status(st["gaps_x"], st["gaps_y"], points, spacing, dominant_height,
-                        min_height, smaller=smaller)
-    status, share = c["status"], c["share"]
+    gaps = st["gaps"]
+    smaller = own_spacings({**st, "spacing": spacing}, gaps.zone)  # each stand's own
+    c = position_status(gaps.x, gaps.y, points, spacing, dominant_height, min_height,
+                        smaller=smaller)
     st = dict(st)
     st["edge_unresolved"] = 0
+    gaps = gaps.with_columns(status=c["status"], share=c["share"], returns=c["returns"],
+                             height=c["height"], tree_x=c["x"], tree_y=c["y"])
     # a position just beyond a row's first or last tree (see :func:`row_spans`) is one only
     # where a tree stands: with nothing there, the row ends before it
-    drop = np.asarray(st.get("gaps_edge", np.zeros(status.size, bool)), bool) & \
-        (status == MISSING)
+    drop = gaps.column("edge", False) & (gaps.status == MISSING)
     if drop.any():
-        keep = ~drop
-        gz = np.asarray(st.get("gaps_zone", np.full(status.size, -1)))
-        for key in ("gaps_x", "gaps_y", "gaps_i", "gaps_j", "gaps_row", "gaps_plant",
-                    "gaps_zone", "gaps_edge"):
-            if key in st:
-                st[key] = np.asarray(st[key])[keep]
-        c = {key: np.asarray(v)[keep] for key, v in c.items()}
-        status, share = c["status"], c["share"]
+        gz = gaps.column("zone", -1)
+        gaps = gaps.take(~drop)
         n = int(drop.sum())
         st["expected"], st["missing"] = st["expected"] - n, st["missing"] - n
         st["edge_unresolved"] = n
@@ -543,20 +533,19 @@ def classify_gaps(st: dict, points, spacing, dominant_height: float,
             st["zones"] = {k: {**z, "expected": z["expected"] - int((drop & (gz == k)).sum()),
                                "edge_unresolved": int((drop & (gz == k)).sum())}
                            for k, z in st["zones"].items()}
-    st["gaps_status"] = status
-    st["gaps_share"], st["gaps_returns"] = share, c["returns"]
-    st["gaps_height"], st["gaps_tree_x"], st["gaps_tree_y"] = c["height"], c["x"], c["y"]
+    st["gaps"] = gaps
+    status, share = gaps.status, gaps.share
     total = int(st["missing"])
-    st.update(counts(status, share, c["returns"]))
+    st.update(counts(status, share, gaps.returns))
     if total != status.size:
         raise ValueError(f"{total} missing positions but {status.size} gaps")
     e = st["expected"]
     st["stocking_pct"] = (100.0 * (st["stocked"] + st["suppressed"] + st["uncertain_stocked"])
                           / e if e else float("nan"))
     if "zones" in st:
-        gz = np.asarray(st.get("gaps_zone", np.full(status.size, -1)))
+        gz = gaps.column("zone", -1)
         st["zones"] = {k: {**z, **counts(status[gz == k], share[gz == k],
-                                          c["returns"][gz == k])}
+                                          gaps.returns[gz == k])}
                        for k, z in st["zones"].items()}
     return st
 

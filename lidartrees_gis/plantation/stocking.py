@@ -18,6 +18,7 @@ from scipy import ndimage
 
 from ..errors import InputError
 from .spectrum import MIN_PERIOD_CELLS, _spectral_guess  # noqa: F401
+from .table import Positions
 from .stockreport import (PLANTING_MIN_TREES, STOCK_COUNTS, axial_mean,  # noqa: F401
                           axial_round, fitted_spacing, stocking_fields)
 
@@ -252,9 +253,10 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
     -------
     dict with ``grid`` (:class:`PlantingGrid`), ``expected`` (positions), ``stocked``,
     ``missing``, ``extra`` (tops sharing a position with another, e.g. forks or weeds),
-    ``stocking_pct``, ``planted_per_ha`` (10,000 / (R x C)), ``gaps_x``, ``gaps_y``,
-    ``gaps_i``, ``gaps_j`` (lattice indices of the missing trees), ``gaps_row``,
-    ``gaps_plant`` (their row and plant numbers, :func:`crew_numbers`), ``tops_row``,
+    ``stocking_pct``, ``planted_per_ha`` (10,000 / (R x C)), ``gaps`` (the positions with
+    no top, :class:`~lidartrees_gis.plantation.table.Positions`: ``x, y``, lattice indices
+    ``i, j``, row and plant numbers ``row, plant`` as :func:`crew_numbers` gives them, and
+    ``edge``), ``tops_row``,
     ``tops_plant`` (those of the position each top takes, 0 for none), ``numbering`` (the
     rule in words) and ``shares`` (per top: it took no position, and the position it rounds to
     was taken by a nearer top). ``grid``: a lattice already
@@ -265,10 +267,10 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
     stand); ``own``: the tops counted as extra when they take no position (default all).
     ``span``: the planted rows, each one's first and last tree and how far it may reach
     (:func:`lidartrees_gis.plantation.positions.row_spans`): positions beyond its trees are counted
-    out to its reach only where a tree stands (``gaps_edge``); ``area``: the cells those may lie
-    in (the stand's cells with data: a row's reach may pass the planted area's canopy;
-    default the planted area).
-    ``look_x, look_y``: every empty position, inside the box or not (a tree looked for at an
+    out to its reach only where a tree stands (the gaps' ``edge``); ``area``: the cells those
+    may lie in (the stand's cells with data: a row's reach may pass the planted area's
+    canopy; default the planted area).
+    ``looks``: every empty position, inside the box or not (a tree looked for at an
     empty position beyond a tile's core may stand inside it). ``anchor``: where the stand's
     numbers start (:func:`lidartrees_gis.plantation.positions.lattice_anchor`).
     """
@@ -354,11 +356,10 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
             "extra": max(extra, 0),
             "stocking_pct": 100.0 * stocked / expected if expected else float("nan"),
             "planted_per_ha": 1e4 / (R * C), "planted_area_ha": planted_cells * spec.cell_area / 1e4,
-            "gaps_x": nx[gaps], "gaps_y": ny[gaps], "gaps_i": ii[gaps].astype(np.int64),
-            "gaps_j": jj[gaps].astype(np.int64), "gaps_row": row_no[gaps],
-            "gaps_plant": plant_no[gaps], "gaps_edge": edge[gaps],
+            "gaps": Positions(nx[gaps], ny[gaps], i=ii[gaps], j=jj[gaps], row=row_no[gaps],
+                              plant=plant_no[gaps], edge=edge[gaps]),
             "tops_row": tops_row, "tops_plant": tops_plant,
-            "numbering": numbering, "shares": shares, "look_x": look_x, "look_y": look_y}
+            "numbering": numbering, "shares": shares, "looks": Positions(look_x, look_y)}
 
 
 #: a planting lattice is recognised under at least :data:`PLANTING_MIN_TREES` tops (defined with
