@@ -203,3 +203,25 @@ def test_a_stand_whose_canopy_shows_its_rows_only_gets_its_plants_from_the_canop
     monkeypatch.setattr(canopy_lattice, "peaks_lattice_guess", lambda *a, **k: None)
     st = lt.find_trees(las, params=params, stands=stands)[2]["stands"].iloc[0]
     assert st["lattice"].startswith("no planting lattice")
+
+
+def test_a_stand_whose_canopy_shows_rows_but_no_plants_says_so(tmp_path):
+    """4 x 1.2 m of closed crowns (1.5 ha, 8 pts/m²): the tops lean by more than a third of
+    the plant spacing, so neither the tops, the canopy's spectrum nor its local maxima show
+    the plants along the rows; the stand has no lattice and its ``lattice`` field says that
+    the canopy shows rows 4 m apart at 40° (not that the tops lie in no rows), tiled too."""
+    from lidartrees_gis import api as lt
+    from lidartrees_gis.als.trees import TreeParams
+
+    cfg = fam._cfg("rows_only", [fam._stand((4, 1.2), 40, 1.5, crown_k=fam.CLOSED)],
+                   slope=0.06)
+    pts, truth = fam.make_stand(cfg, 1)
+    las, stands = tmp_path / "c.las", tmp_path / "c.gpkg"
+    fam.write_las(pts, las)
+    fam.write_stands(truth, stands)
+    for kw in ({}, {"tile_size": 60, "workers": 1}):
+        st = lt.find_trees(las, params=TreeParams(spacing="auto"), stands=stands,
+                           **kw)[2]["stands"].iloc[0]
+        assert st["lattice"].startswith("no planting lattice: the canopy shows rows 4.0 m "
+                                        "apart at 40°"), st["lattice"]
+        assert st["stocking_pct"] is None or np.isnan(st["stocking_pct"])  # empty

@@ -52,6 +52,7 @@ class TreesSummary(Tally):
         self.lattices, self.azimuths, self.ids, self.spacings = [], [], [], []
         self.numbering, self.numbered = "", 0
         self.stock = dict.fromkeys(self.STOCK, 0)
+        self.why = None  # why the area's canopy, showing rows, gave no lattice
         self.stock["planted_area_ha"] = 0.0
 
     def add(self, r: dict) -> None:
@@ -71,6 +72,8 @@ class TreesSummary(Tally):
         self.gap_trees += r["gap_trees"]
         if r["planting"]:
             self.lattices.append(tuple(r["planting"]))
+        why = r.get("lattice_why") or {}
+        self.why = self.why or why.get("all") or next(iter(why.values()), None)
         st = r["stocking"]
         if st is not None:
             for k in self.STOCK:
@@ -131,7 +134,7 @@ class TreesSummary(Tally):
             ok = [(a, e) for a, e in self.azimuths if e and np.isfinite(a)]
             az = axial_mean(*zip(*ok)) if ok else np.nan
             row.update(stocking_fields(fitted_spacing(params.spacing, self.spacings), az,
-                                       self.stock, tops=n))
+                                       self.stock, tops=n, why=self.why))
             # how row_number and plant_number count: per stand, the same in every tiling
             row["numbering"] = self.numbering
         return row

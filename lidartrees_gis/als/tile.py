@@ -302,6 +302,10 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
         "azimuth": st["grid"].azimuth if st["grid"] is not None else float("nan"),
         "spacing": st["spacing"]}
     out["stand_stocking"] = None if st is None else st["zones"]
+    # why a stand (or the area: "all") whose canopy shows rows has no lattice
+    out["lattice_why"] = {} if st is None else {
+        k[1]: v for k, v in (st.get("grids") or {}).items()
+        if isinstance(k, tuple) and k[0] == "why"}
     if under is not None:  # no crown of their own: a NULL crown polygon
         out = {c: np.r_[out[c], under[c]] for c in TREE_FIELDS} | {
             k: v for k, v in out.items() if k not in TREE_FIELDS}

@@ -118,6 +118,23 @@ def _first_axis(power, cell: float, looks: float):
     return r, CANOPY_FREQS[keep], int(i), int(j)
 
 
+def canopy_rows_only(spectrum, cell: float = 0.0) -> str | None:
+    """Why a stand's canopy gave no lattice when it shows its rows: the rows' spacing and
+    direction in words (for the ``lattice`` field), or None when the canopy shows no row
+    beyond chance either. The rows' wave vector is the spectrum's strongest peak
+    (:func:`canopy_lattice_guess`'s first axis); no spacing along them is seen."""
+    if not isinstance(spectrum, dict):
+        spectrum = {"power": spectrum, "looks": 1.0}
+    first = _first_axis(spectrum["power"], cell, spectrum.get("looks", 1.0))
+    if first is None:
+        return None
+    r, freqs, i, j = first
+    rows = (float(np.degrees(CANOPY_THETAS[i])) + 90.0) % 180.0
+    return (f"no planting lattice: the canopy shows rows {1.0 / float(freqs[j]):.1f} m apart "
+            f"at {rows:.0f}°, but no plant spacing along them (crowns merged): give the spacing, "
+            "-spacing RxC")
+
+
 def peaks_lattice_guess(peaks, cell: float = 0.0):
     """Row direction and spacings (as :func:`canopy_lattice_guess`) from the canopy's local
     maxima ``peaks`` (:func:`canopy_peaks`), for a closed canopy whose heights hardly dip

@@ -54,11 +54,13 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
     (:func:`~lidartrees_gis.plantation.canopy_lattice.canopy_spectrum`) for a list of keys (stand indices,
     ``"all"``): a stand whose tops show no lattice (a closed canopy, where the tops of
     neighbours merge) is given the lattice of its canopy's spectrum
-    (:func:`~lidartrees_gis.plantation.canopy_lattice.canopy_planting`) when there is one. ``fits``:
+    (:func:`~lidartrees_gis.plantation.canopy_lattice.canopy_planting`) when there is one;
+    where its canopy shows rows but no plants along them, ``("why", key)`` says so in words
+    (:func:`~lidartrees_gis.plantation.canopy_lattice.canopy_rows_only`). ``fits``:
     a function ``fits(jobs, spacing, cell)`` that gives :func:`fit_lattice` of each ``(x, y)``
     of ``jobs``, in order (a run's workers, one stand each); by default fitted here in turn.
     """
-    from .canopy_lattice import canopy_planting
+    from .canopy_lattice import canopy_planting, canopy_rows_only
     from .stocking import PLANTING_MIN_TREES
 
     tx, ty = np.asarray(top_x, float), np.asarray(top_y, float)
@@ -98,6 +100,8 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
             for k in lost:
                 if powers.get(k) is not None:
                     own[k] = canopy_planting(*tops_of(k), powers[k], cell)
+                    if own[k] is None and canopy_rows_only(powers[k], cell):
+                        out[("why", k)] = canopy_rows_only(powers[k], cell)
 
     def all_tops():
         if "all" not in out:

@@ -349,6 +349,7 @@ class StandsTally:
         self.stock = {k: np.zeros(n) for k in STOCK}
         self.azimuths = [[] for _ in range(n)]
         self.spacings = [[] for _ in range(n)]
+        self.why = {}  # why a stand whose canopy shows rows has no lattice
         self.outside = 0
 
     def add(self, r: dict) -> None:
@@ -364,6 +365,8 @@ class StandsTally:
             self.crowned[k] += int((sel & crowned).sum())
         for k, (data, canopy) in (r.get("stand_cells") or {}).items():
             self.cells[k] += (data, canopy)
+        self.why.update({k: v for k, v in (r.get("lattice_why") or {}).items()
+                         if isinstance(k, int) and k >= 0})
         for k, st in (r.get("stand_stocking") or {}).items():
             if k < 0:
                 continue
@@ -412,7 +415,8 @@ class StandsTally:
             if spacing is not None:
                 az = axial_mean(*zip(*self.azimuths[k])) if self.azimuths[k] else np.nan
                 row.update(stocking_fields(fitted_spacing(spacing, self.spacings[k]), az,
-                                           {f: self.stock[f][k] for f in STOCK}, tops=n))
+                                           {f: self.stock[f][k] for f in STOCK}, tops=n,
+                                           why=self.why.get(k)))
                 for f in ("planting_positions", "stocked_positions", "suppressed_trees",
                           "missing_trees", "uncertain_positions", "extra_tops"):
                     row[f] = int(row[f])

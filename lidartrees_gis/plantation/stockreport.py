@@ -19,7 +19,8 @@ STOCK_COUNTS = ("expected", "stocked", "suppressed", "missing", "missing_crowned
 STOCKING_Z = 1.959964
 
 
-def stocking_fields(spacing, azimuth: float, st: dict, *, tops: int | None = None) -> dict:
+def stocking_fields(spacing, azimuth: float, st: dict, *, tops: int | None = None,
+                    why: str | None = None) -> dict:
     """The summary fields of plantation mode from the counts of
     :func:`lidartrees_gis.plantation.stocking.stocking` (``expected, stocked, missing, extra,
     planted_area_ha``, and :func:`lidartrees_gis.plantation.positions.classify_gaps`'s
@@ -34,15 +35,16 @@ def stocking_fields(spacing, azimuth: float, st: dict, *, tops: int | None = Non
     neighbours' crowns is not ruled out there) a tree; each end widened by the 95 % spread
     of the missing and suppressed calls (``resolved_var``), clipped to what the positions
     allow. With no lattice (``spacing`` None: ``-spacing auto`` found none) the
-    stocking fields are empty (None) and ``lattice`` says why; ``tops``: the tree tops the
-    lattice was looked for under."""
+    stocking fields are empty (None) and ``lattice`` says why (``why``, when given: the
+    canopy shows rows but no plants along them); ``tops``: the tree tops the lattice was
+    looked for under."""
     e = st["expected"]
     sup = st.get("suppressed", 0)
     unc = st.get("uncertain_stocked", 0.0)
     if spacing is None or not e:  # -spacing auto and no lattice found, or no position
         if spacing is None:
             why = (f"no planting lattice: {tops} tops, fewer than the {PLANTING_MIN_TREES} "
-                   "needed" if tops is not None and tops < PLANTING_MIN_TREES else
+                   "needed" if tops is not None and tops < PLANTING_MIN_TREES else why or
                    "no planting lattice: the tops lie in no rows of one direction and spacing")
         else:
             why = "no planting position in the planted area"
