@@ -71,7 +71,7 @@ def test_classify_gaps_counts_each_status_and_stocks_uncertain_by_their_share():
     assert out["zones"][0].pop("resolved_var") == pytest.approx(var0, abs=1e-12)
     assert out["zones"][0] | {} == {"expected": 50, "stocked": 48, "missing": 1,
                                     "missing_crowned": 0, "suppressed": 1, "uncertain": 0,
-                                    "uncertain_stocked": 0.0}
+                                    "uncertain_stocked": 0.0, "edge_unresolved": 0}
     assert out["zones"][1]["uncertain"] == 2 and out["zones"][1]["missing"] == 0
     # a missing call with 1 of 12 returns at crown height: still missing, counted crowned
     one = classify_gaps({**st, "gaps": Positions(gx[:2], np.zeros(2), zone=[0, 0]),

@@ -378,7 +378,8 @@ def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: flo
         return {**_empty(tx.size), "grids": grids, "masks": masks}
     main = max(parts.values(), key=lambda p: p["expected"])
     out = {k: sum(p[k] for p in parts.values()) for k in ("expected", "stocked", "missing",
-                                                           "extra", "planted_area_ha")}
+                                                           "extra", "planted_area_ha",
+                                                           "edge_cut")}
     cat = {key: Positions.concat(p[key].with_columns(zone=np.full(len(p[key]), k))
                                  for k, p in parts.items()) for key in ("gaps", "looks")}
     tops_row = np.zeros(tx.size, np.int64)
@@ -396,7 +397,7 @@ def stocking_by_stand(top_x, top_y, chm, spec, spacing, zone, *, min_height: flo
                planted_per_ha=1e4 / (R * C),
                stocking_pct=100.0 * out["stocked"] / e if e else float("nan"),
                zones={k: {**{f: p[f] for f in ("expected", "stocked", "missing", "extra",
-                                               "planted_area_ha", "spacing")},
+                                               "planted_area_ha", "spacing", "edge_cut")},
                           "azimuth": p["grid"].azimuth} for k, p in parts.items()},
                grids=grids, masks=masks)
     return out
@@ -521,7 +522,12 @@ def classify_gaps(st: dict, points, spacing, dominant_height: float,
     c = position_status(gaps.x, gaps.y, points, spacing, dominant_height, min_height,
                         smaller=smaller)
     st = dict(st)
-    st["edge_unresolved"] = 0
+    # the row's positions along the data's edge (:func:`stocking`'s ``edge_cut``), and below
+    # those just beyond the rows' ends with nothing there
+    st["edge_unresolved"] = st.get("edge_cut", 0)
+    if "zones" in st:
+        st["zones"] = {k: {**z, "edge_unresolved": z.get("edge_cut", 0)}
+                       for k, z in st["zones"].items()}
     gaps = gaps.with_columns(status=c["status"], share=c["share"], returns=c["returns"],
                              height=c["height"], tree_x=c["x"], tree_y=c["y"])
     # a position just beyond a row's first or last tree (see :func:`row_spans`) is one only
@@ -532,10 +538,11 @@ def classify_gaps(st: dict, points, spacing, dominant_height: float,
         gaps = gaps.take(~drop)
         n = int(drop.sum())
         st["expected"], st["missing"] = st["expected"] - n, st["missing"] - n
-        st["edge_unresolved"] = n
+        st["edge_unresolved"] += n
         if "zones" in st:  # (their missing counts are counted again below)
             st["zones"] = {k: {**z, "expected": z["expected"] - int((drop & (gz == k)).sum()),
-                               "edge_unresolved": int((drop & (gz == k)).sum())}
+                               "edge_unresolved": z["edge_unresolved"]
+                               + int((drop & (gz == k)).sum())}
                            for k, z in st["zones"].items()}
     st["gaps"] = gaps
     status, share = gaps.status, gaps.share

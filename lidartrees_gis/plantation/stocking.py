@@ -257,7 +257,9 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
     no top, :class:`~lidartrees_gis.plantation.table.Positions`: ``x, y``, lattice indices
     ``i, j``, row and plant numbers ``row, plant`` as :func:`crew_numbers` gives them, and
     ``edge``), ``tops_row``,
-    ``tops_plant`` (those of the position each top takes, 0 for none), ``numbering`` (the
+    ``tops_plant`` (those of the position each top takes, 0 for none), ``edge_cut`` (a
+    row's positions within its reach in the band along the data's edge, not counted: the
+    data cannot tell whether a tree stands there), ``numbering`` (the
     rule in words) and ``shares`` (per top: it took no position, and the position it rounds to
     was taken by a nearer top). ``grid``: a lattice already
     fitted to these tops (e.g. by :func:`detect_planting`), not fitted again. ``within``
@@ -296,18 +298,27 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
     if area is not None:
         near[near] &= area[r[near], c[near]]
     edge = np.zeros(ok.size, bool)
+    cut = np.zeros(ok.size, bool)
     if span is not None:  # the planted rows, each from its first to its last tree, and the
         rows, first, last, first_out, last_out = span  # positions out to each row's reach
         if rows.size:  # (kept only where a tree stands; the canopy may end before them)
             k = np.clip(np.searchsorted(rows, jj.astype(np.int64)), 0, rows.size - 1)
             inrow = rows[k] == jj
+            reach = inrow & (ii >= first_out[k]) & (ii <= last_out[k])
             edge = inrow & (((ii < first[k]) & (ii >= first_out[k]))
                             | ((ii > last[k]) & (ii <= last_out[k])))
             edge &= near if area is not None else ok
             ok &= inrow & (ii >= first[k]) & (ii <= last[k])
             ok |= edge
+            # a row's positions in the band along the data's edge, where the data cannot tell
+            # whether a tree stands (its crown half cut): not counted, but not ruled out
+            grid = (r >= 0) & (r < spec.height) & (c >= 0) & (c < spec.width)
+            cut = reach & grid & ~inside
+            if area is not None:
+                cut[cut] &= area[r[cut], c[cut]]
         else:
             ok[:] = False
+    cx0, cy0 = nx[cut], ny[cut]
     ii, jj, nx, ny, edge = ii[ok], jj[ok], nx[ok], ny[ok], edge[ok]
     # one top per position: closest pairs first, within half the smaller spacing
     from ..report.evaluate import match_trees
@@ -338,6 +349,8 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
     look_x, look_y = nx[gaps], ny[gaps]  # every empty position, the box's or not
     if within is not None:  # count only what lies in the box
         x0, y0, x1, y1 = within
+        cut_in = (cx0 >= x0) & (cx0 < x1) & (cy0 >= y0) & (cy0 < y1)
+        cx0 = cx0[cut_in]
         inb = (nx >= x0) & (nx < x1) & (ny >= y0) & (ny < y1)
         ii, jj, nx, ny, stocked_mask = ii[inb], jj[inb], nx[inb], ny[inb], stocked_mask[inb]
         row_no, plant_no, edge = row_no[inb], plant_no[inb], edge[inb]
@@ -353,7 +366,7 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
     extra = sum((a, b) in nodes for a, b in zip(np.round(fi).astype(int).tolist(),
                                                  np.round(fj).astype(int).tolist()))
     return {"grid": g, "expected": expected, "stocked": stocked, "missing": int(gaps.sum()),
-            "extra": max(extra, 0),
+            "extra": max(extra, 0), "edge_cut": int(cx0.size),
             "stocking_pct": 100.0 * stocked / expected if expected else float("nan"),
             "planted_per_ha": 1e4 / (R * C), "planted_area_ha": planted_cells * spec.cell_area / 1e4,
             "gaps": Positions(nx[gaps], ny[gaps], i=ii[gaps], j=jj[gaps], row=row_no[gaps],

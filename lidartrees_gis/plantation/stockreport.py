@@ -29,8 +29,9 @@ def stocking_fields(spacing, azimuth: float, st: dict, *, tops: int | None = Non
 
     ``stocking_pct_low``, ``stocking_pct_high``: its interval over the positions the returns
     could not resolve: the stocking were every uncertain position empty and the empty
-    positions just beyond the rows' ends (``edge_unresolved``) missing trees as far as
-    :func:`edge_missing` allows, and were every uncertain position stocked and every missing
+    positions just beyond the rows' ends and a row's positions in the band along the data's
+    edge (``edge_unresolved``) missing trees as far as :func:`edge_missing` allows, and were
+    every uncertain position stocked and every missing
     call with a return at crown height near it (``missing_crowned``: a small tree under its
     neighbours' crowns is not ruled out there) a tree; each end widened by the 95 % spread
     of the missing and suppressed calls (``resolved_var``), clipped to what the positions
@@ -75,8 +76,9 @@ def stocking_fields(spacing, azimuth: float, st: dict, *, tops: int | None = Non
 
 
 def edge_missing(st: dict) -> float:
-    """How many of the empty positions just beyond the rows' ends (``edge_unresolved``: a
-    missing tree at a row's end, or no planting) may be missing trees: the upper end of a 95 %
+    """How many of the empty positions just beyond the rows' ends and of the rows' positions
+    along the data's edge (``edge_unresolved``: a missing tree at a row's end, or no planting;
+    a crown the data's edge cuts) may be missing trees: the upper end of a 95 %
     interval of a binomial count at the stand's share of missing positions (a tree at a row's
     end is as likely to be missing as any other), at most all of them."""
     n = float(st.get("edge_unresolved", 0))
