@@ -16,7 +16,8 @@ needs at least :data:`MIN_PLOTS` plots.
 Stand estimates: the mean of the model's cell predictions in the stand (cells of the plots'
 size). Their 95 % interval ``estimate ± t(0.975, n - p - 1) · sqrt(V_boot + σ²_stand)``:
 ``V_boot`` the variance of the stand's estimate over bootstrap resamples of the plots (the model
-refitted on each, :data:`BOOTSTRAP` resamples; the variance of a normal with their central 95 %
+chosen again on each resample's distinct plots and refitted on the resample, :data:`BOOTSTRAP`
+resamples; the variance of a normal with their central 95 %
 range, robust to the wild refits of resamples of few distinct plots; inflated by
 ``n / (n - p - 1)``), ``σ²_stand``
 the variance of a stand's departure from the model (:func:`stand_variance`: the between-stand
@@ -253,8 +254,11 @@ def stand_variance(resid_loo, plot_stand, plot_noise=None) -> float:
 
 def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_stand,
                n_stands: int, plot_stand, *, plot_noise=None, resamples: int = BOOTSTRAP,
-               seed: int = 0) -> dict:
+               seed: int = 0, reselect: bool = True) -> dict:
     """Each stand's mean of the cell predictions and its 95 % interval (module doc).
+    ``reselect``: each bootstrap resample chooses its model again (:func:`select_model` on
+    its distinct plots) before it is refitted, so the interval holds the choice's
+    uncertainty too (a model chosen on 8 plots is one of several nearly as good).
 
     Returns ``estimate``, ``low``, ``high``, ``se``, ``cells`` (per stand), ``sigma2_stand``,
     ``resamples`` (the bootstrap refits that succeeded)."""
@@ -265,21 +269,42 @@ def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_
     est, cells = _stand_means(np.where(valid, model.predict(cell_metrics), np.nan), cell_stand,
                               n_stands)
     rng = np.random.default_rng(seed)
-    Xp = model.design(plot_metrics)
-    yt = np.log(y) if model.form == "loglog" else y
+    designs = {}
+
+    def design(m):  # the plots' and the cells' design of a model's metrics and form, once
+        key = (m.form, tuple(m.predictors))
+        if key not in designs:
+            xc = m.design(cell_metrics)
+            designs[key] = (m.design(plot_metrics), xc, np.isfinite(xc).all(axis=1))
+        return designs[key]
+
     reps = []
     for _ in range(resamples):
         idx = rng.integers(0, n, n)
-        if np.unique(idx).size < p + 2:  # too few distinct plots to refit the model
+        m = model
+        if reselect:
+            u = np.unique(idx)
+            if u.size < MIN_PLOTS:
+                continue
+            try:
+                m = select_model({k: np.asarray(v)[u] for k, v in plot_metrics.items()},
+                                 y[u], model.target)[0]
+            except InputError:
+                continue
+        q = len(m.predictors)
+        if np.unique(idx).size < q + 2:  # too few distinct plots to refit the model
             continue
+        Xp, Xr, ok = design(m)
+        yt = np.log(y) if m.form == "loglog" else y
         r = _ols(Xp[idx], yt[idx])
         if r is None:
             continue
         coef = r[0]
-        s2 = float(np.sum((yt[idx] - r[1]) ** 2) / max(n - p - 1, 1))
-        eta = Xc[valid] @ coef
-        pred = np.full(Xc.shape[0], np.nan)
-        pred[valid] = np.exp(eta + s2 / 2) if model.form == "loglog" else eta
+        s2 = float(np.sum((yt[idx] - r[1]) ** 2) / max(n - q - 1, 1))
+        eta = Xr[ok] @ coef
+        pred = np.full(Xr.shape[0], np.nan)
+        with np.errstate(over="ignore"):
+            pred[ok] = np.exp(eta + s2 / 2) if m.form == "loglog" else eta
         reps.append(_stand_means(pred, cell_stand, n_stands)[0])
     v_boot = boot_variance(reps, n_stands) * n / max(n - p - 1, 1)
     resid = y - model.stats["loo"]
