@@ -249,3 +249,14 @@ def test_positions_are_one_table_whose_columns_keep_one_length():
     assert list(t.column("plant", 0)) == [0, 0, 0] and t.row.dtype == np.int64
     with pytest.raises(ValueError, match="'row' has 2 rows, not 3"):
         Positions([0.0, 1.0, 2.0], [0.0, 1.0, 2.0], row=[1, 2])
+
+
+def test_positions_are_kept_for_resume(tmp_path):
+    """A tile's result holding a Positions table is stored and read back (``-resume``)."""
+    from lidartrees_gis.io.store import load, save
+
+    t = Positions([0.5, 1.5], [2.0, 3.0], row=[3, 4], status=[0, 2], share=[0.0, 0.4])
+    save(tmp_path / "t.npz", {"stocking": {"gaps": t}}, {"tile": 0})
+    back = load(tmp_path / "t.npz")[0]["stocking"]["gaps"]
+    assert isinstance(back, Positions) and back.columns() == t.columns()
+    assert list(back.row) == [3, 4] and list(back.share) == [0.0, 0.4] and back.zone is None

@@ -247,9 +247,8 @@ def canopy_planting(x, y, spectrum, cell: float = 0.0):
     by :func:`fit_planting_grid`. Where that gives none and ``spectrum`` holds the canopy's
     ``peaks`` (:func:`canopy_peaks`), the lattice comes from those
     (:func:`peaks_lattice_guess`: the spectrum may show the rows only) and is fitted on
-    them. None when the canopy
-    is not periodic beyond chance, or the tops do not gather on the lattice beyond chance
-    (:data:`CANOPY_FIT_LEVEL`)."""
+    them. None when the canopy is not periodic beyond chance, or the tops do not gather on
+    the lattice beyond chance (:data:`CANOPY_FIT_LEVEL`)."""
     if not isinstance(spectrum, dict):
         spectrum = {"power": spectrum, "looks": 1.0}
     looks = spectrum.get("looks", 1.0)

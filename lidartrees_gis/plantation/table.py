@@ -9,6 +9,8 @@ from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
+from ..io.store import register
+
 #: every column's dtype; ``x, y`` are always there, the others once something sets them
 POSITION_DTYPES = {"x": np.float64, "y": np.float64, "i": np.int64, "j": np.int64,
                    "row": np.int64, "plant": np.int64, "edge": bool, "zone": np.int64,
@@ -16,6 +18,7 @@ POSITION_DTYPES = {"x": np.float64, "y": np.float64, "i": np.int64, "j": np.int6
                    "height": np.float64, "tree_x": np.float64, "tree_y": np.float64}
 
 
+@register  # a tile's result holding them is kept for -resume
 @dataclass(frozen=True, eq=False)
 class Positions:
     """Planting positions, one row each.
