@@ -187,6 +187,14 @@ def test_a_canopy_without_rows_has_no_spectral_lattice():
     assert g is not None and abs(g[1] - 3.0) <= 0.05 and abs(g[2] - 2.0) <= 0.05
 
 
+def test_a_natural_forest_is_not_said_to_show_rows(tmp_path, data):
+    """bcts (a natural conifer forest): its canopy's strongest period, near 1 m across a
+    flight line, is not a planting row; the lattice field says the tops lie in no rows."""
+    r = _run("trees", data("lasR_bcts/bcts_1.laz"), tmp_path / "b.gpkg", "-spacing", "auto")
+    assert r["lattice"].startswith("no planting lattice: the tops lie in no rows")
+    assert r["stocking_pct"] is None
+
+
 @pytest.mark.parametrize("azimuth,spacing", [(20.0, (3.0, 2.0)), (118.0, (3.0, 1.5))])
 def test_positions_and_their_statuses_against_the_truth(tmp_path, azimuth, spacing):
     # every planting position counted once, and each empty one's status against what the

@@ -118,15 +118,22 @@ def _first_axis(power, cell: float, looks: float):
     return r, CANOPY_FREQS[keep], int(i), int(j)
 
 
+#: :func:`canopy_rows_only` names rows at least this far apart (m): planting rows are 2.5-4 m
+#: apart; a canopy's strongest period near 1 m (a natural forest's, across a flight line) is
+#: not a row
+CANOPY_ROW_MIN = 2.0
+
+
 def canopy_rows_only(spectrum, cell: float = 0.0) -> str | None:
     """Why a stand's canopy gave no lattice when it shows its rows: the rows' spacing and
     direction in words (for the ``lattice`` field), or None when the canopy shows no row
     beyond chance either. The rows' wave vector is the spectrum's strongest peak
-    (:func:`canopy_lattice_guess`'s first axis); no spacing along them is seen."""
+    (:func:`canopy_lattice_guess`'s first axis), at least :data:`CANOPY_ROW_MIN` long; no
+    spacing along them is seen."""
     if not isinstance(spectrum, dict):
         spectrum = {"power": spectrum, "looks": 1.0}
     first = _first_axis(spectrum["power"], cell, spectrum.get("looks", 1.0))
-    if first is None:
+    if first is None or 1.0 / float(first[1][first[3]]) < CANOPY_ROW_MIN:
         return None
     r, freqs, i, j = first
     rows = (float(np.degrees(CANOPY_THETAS[i])) + 90.0) % 180.0
