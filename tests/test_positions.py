@@ -1,10 +1,10 @@
 """What stands at an empty planting position (issue 23): missing, suppressed, or uncertain
-when the returns there are too few or too mixed to tell (als/positions.position_status)."""
+when the returns there are too few or too mixed to tell (plantation/status.position_status)."""
 import numpy as np
 import pytest
 
-from lidartrees_gis.plantation.positions import (MISSING, SUPPRESSED, SUPPRESSED_SHARE, UNCERTAIN,
-                                          classify_gaps, position_status, wilson_interval)
+from lidartrees_gis.plantation.status import (MISSING, SUPPRESSED, SUPPRESSED_SHARE, UNCERTAIN,
+                                       classify_gaps, position_status, wilson_interval)
 from lidartrees_gis.plantation.table import Positions
 
 

@@ -343,7 +343,7 @@ def test_understorey_floor_is_the_suppressed_trees_floor():
     """Plantation mode drops tops below the share of the dominant height that a suppressed tree
     must reach: one threshold, so a tree is never too low to be a tree yet high enough to be a
     suppressed one."""
-    from lidartrees_gis.plantation.positions import SUPPRESSED_HEIGHT
+    from lidartrees_gis.plantation.status import SUPPRESSED_HEIGHT
     from lidartrees_gis.als.tile import UNDERSTOREY_HEIGHT
 
     assert UNDERSTOREY_HEIGHT == SUPPRESSED_HEIGHT

@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import OutputExistsError
 from ..io.styles import GPKG_DATASET_OPTIONS, LAYER_STYLES, embed_styles
 from .metrics import tree_ids
-from ..plantation.positions import MISSING, STATUS_NAMES, UNCERTAIN
+from ..plantation.status import MISSING, STATUS_NAMES, UNCERTAIN
 from ..plantation.stocking import STOCK_COUNTS, axial_mean, fitted_spacing, stocking_fields
 from ..plantation.table import Positions
 from .tile import INT_FIELDS, TREE_FIELDS

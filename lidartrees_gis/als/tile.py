@@ -77,11 +77,12 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
     (:func:`lidartrees_gis.plantation.stands.zones`), each stand fitted its own lattice
     (:func:`lidartrees_gis.plantation.positions.stocking_by_stand`); ``points``: every return's
     ``(x, y, height above ground)``, to tell the empty positions holding a suppressed tree
-    from the missing ones (:func:`lidartrees_gis.plantation.positions.classify_gaps`); ``grids``:
+    from the missing ones (:func:`lidartrees_gis.plantation.status.classify_gaps`); ``grids``:
     each stand's lattice (:func:`lidartrees_gis.plantation.positions.fit_stand_grids`) when fitted on
     the whole area's tops (a run in tiles), by default fitted on the tops found here.
     """
-    from ..plantation.positions import classify_gaps, own_spacings, stocking_by_stand
+    from ..plantation.positions import own_spacings, stocking_by_stand
+    from ..plantation.status import classify_gaps
     from ..plantation.gap_look import gap_tops
     from ..plantation.stocking import detect_planting
 
@@ -349,7 +350,7 @@ def _dominant_height(result, arr, spec, params: TreeParams) -> float:
 
 #: plantation mode: a top lower than this share of the dominant height is the understorey
 #: (shrubs, regrowth), not a planted tree; the same share a suppressed tree must reach
-#: (:data:`lidartrees_gis.plantation.positions.SUPPRESSED_HEIGHT`, kept equal by a test)
+#: (:data:`lidartrees_gis.plantation.status.SUPPRESSED_HEIGHT`, kept equal by a test)
 UNDERSTOREY_HEIGHT = 0.3
 
 
@@ -406,11 +407,11 @@ def _planted_separation(result, arr, spec, params: TreeParams, heights, spacing)
 
 def _suppressed_trees(st, tile: Tile, res: float, stands) -> dict | None:
     """The suppressed trees of a tile's core, as tree rows: the empty planting positions
-    classified as holding one (:func:`lidartrees_gis.plantation.positions.classify_gaps`;
+    classified as holding one (:func:`lidartrees_gis.plantation.status.classify_gaps`;
     ``suppressed`` = 1), and the uncertain ones whose share of crown returns leans to a tree
     (``suppressed`` = 2: the likelier answer, for a field check)."""
     from .metrics import tree_ids
-    from ..plantation.positions import SUPPRESSED, SUPPRESSED_SHARE, UNCERTAIN
+    from ..plantation.status import SUPPRESSED, SUPPRESSED_SHARE, UNCERTAIN
     from ..plantation.stands import locate
 
     if st is None or st["gaps"].status is None:

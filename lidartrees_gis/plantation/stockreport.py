@@ -23,7 +23,7 @@ def stocking_fields(spacing, azimuth: float, st: dict, *, tops: int | None = Non
                     why: str | None = None) -> dict:
     """The summary fields of plantation mode from the counts of
     :func:`lidartrees_gis.plantation.stocking.stocking` (``expected, stocked, missing, extra,
-    planted_area_ha``, and :func:`lidartrees_gis.plantation.positions.classify_gaps`'s
+    planted_area_ha``, and :func:`lidartrees_gis.plantation.status.classify_gaps`'s
     ``suppressed, uncertain, uncertain_stocked, missing_crowned, resolved_var,
     edge_unresolved``; summed over the tiles).
 

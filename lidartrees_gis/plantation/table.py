@@ -1,6 +1,6 @@
 """One table type for planting positions (:class:`Positions`): the empty positions a stand's
 lattice leaves (the ``gaps`` of :func:`lidartrees_gis.plantation.stocking.stocking`), what the
-second look finds there (:func:`lidartrees_gis.plantation.positions.classify_gaps`) and the
+second look finds there (:func:`lidartrees_gis.plantation.status.classify_gaps`) and the
 positions a tree is looked for at (``looks``), as columns of one length instead of parallel
 arrays in a dict."""
 from __future__ import annotations
@@ -38,7 +38,7 @@ class Positions:
     zone : ndarray of int64, optional
         Its stand's index (-1: none).
     status, share, returns, height, tree_x, tree_y : ndarray, optional
-        What stands there (:func:`~lidartrees_gis.plantation.positions.position_status`):
+        What stands there (:func:`~lidartrees_gis.plantation.status.position_status`):
         missing, suppressed or uncertain; the share of the returns near it at a suppressed
         tree's height, of how many returns; the tree's height and apex (NaN and the position
         where none leans to a tree).
