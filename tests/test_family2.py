@@ -136,6 +136,27 @@ def test_tops_scatter_around_their_planting_positions(scatter):
         assert 0.1 < np.median(d) < 0.6 and d.max() < 1.6
 
 
+def _stand_files(cfg, tmp_path):
+    """The points (LAS) and the stands (GeoPackage) of configuration ``cfg`` (seed 1), and
+    its truth."""
+    pts, truth = fam.make_stand(cfg, 1)
+    las, stands = tmp_path / "c.las", tmp_path / "c.gpkg"
+    fam.write_las(pts, las)
+    fam.write_stands(truth, stands)
+    return las, stands, truth
+
+
+def _assert_tiled_same(las, stands, params, st):
+    """In 40 m tiles the stand has the same lattice and the same positions as ``st``."""
+    from lidartrees_gis import api as lt
+
+    tiled = lt.find_trees(las, params=params, stands=stands, tile_size=40,
+                          workers=1)[2]["stands"].iloc[0]
+    for key in ("lattice", "spacing", "row_azimuth", "planting_positions", "missing_trees",
+                "suppressed_trees", "uncertain_positions", "stocking_pct"):
+        assert tiled[key] == st[key], key
+
+
 def test_a_closed_stand_gets_its_lattice_from_the_canopy_where_the_tops_show_none(tmp_path,
                                                                                  monkeypatch):
     """A 6-year 3 x 2 m stand of closed crowns (1.5 ha, 8 pts/m²): the tops of neighbours in a
@@ -147,21 +168,14 @@ def test_a_closed_stand_gets_its_lattice_from_the_canopy_where_the_tops_show_non
     from lidartrees_gis.als.trees import TreeParams
 
     cfg = fam._cfg("closed", [fam._stand((3, 2), 20, 1.5, crown_k=fam.CLOSED)], slope=0.08)
-    pts, truth = fam.make_stand(cfg, 1)
-    las, stands = tmp_path / "c.las", tmp_path / "c.gpkg"
-    fam.write_las(pts, las)
-    fam.write_stands(truth, stands)
+    las, stands, truth = _stand_files(cfg, tmp_path)
     params = TreeParams(spacing="auto")
     st = lt.find_trees(las, params=params, stands=stands)[2]["stands"].iloc[0]
     assert st["lattice"] == "found" and st["spacing"] == "3x2"
     assert abs((st["row_azimuth"] - 20.0 + 90.0) % 180.0 - 90.0) <= 1.0
     assert abs(st["stocking_pct"] - truth["stands"][0]["stocking_pct"]) <= 3.0
     # in 40 m tiles (the tiles' spectra summed): the same lattice and the same positions
-    tiled = lt.find_trees(las, params=params, stands=stands, tile_size=40,
-                          workers=1)[2]["stands"].iloc[0]
-    for key in ("lattice", "spacing", "row_azimuth", "planting_positions", "missing_trees",
-                "suppressed_trees", "uncertain_positions", "stocking_pct"):
-        assert tiled[key] == st[key], key
+    _assert_tiled_same(las, stands, params, st)
     monkeypatch.setattr(canopy_lattice, "canopy_planting", lambda *a, **k: None)
     st = lt.find_trees(las, params=params, stands=stands)[2]["stands"].iloc[0]
     assert st["lattice"].startswith("no planting lattice")
@@ -180,10 +194,7 @@ def test_a_stand_whose_canopy_shows_its_rows_only_gets_its_plants_from_the_canop
 
     cfg = fam._cfg("dense7", [fam._stand((3, 2), 65, 1.5, age=7, crown_k=fam.DENSE,
                                          missing=0.15)], slope=0.15)
-    pts, truth = fam.make_stand(cfg, 1)
-    las, stands = tmp_path / "c.las", tmp_path / "c.gpkg"
-    fam.write_las(pts, las)
-    fam.write_stands(truth, stands)
+    las, stands, truth = _stand_files(cfg, tmp_path)
     params = TreeParams(spacing="auto")
     seen = []
     from_peaks = canopy_lattice.peaks_lattice_guess
@@ -195,11 +206,7 @@ def test_a_stand_whose_canopy_shows_its_rows_only_gets_its_plants_from_the_canop
     assert abs((st["row_azimuth"] - 65.0 + 90.0) % 180.0 - 90.0) <= 1.0
     true = truth["stands"][0]["stocking_pct"]
     assert st["stocking_pct_low"] <= true <= st["stocking_pct_high"]
-    tiled = lt.find_trees(las, params=params, stands=stands, tile_size=40,
-                          workers=1)[2]["stands"].iloc[0]
-    for key in ("lattice", "spacing", "row_azimuth", "planting_positions", "missing_trees",
-                "suppressed_trees", "uncertain_positions", "stocking_pct"):
-        assert tiled[key] == st[key], key
+    _assert_tiled_same(las, stands, params, st)
     monkeypatch.setattr(canopy_lattice, "peaks_lattice_guess", lambda *a, **k: None)
     st = lt.find_trees(las, params=params, stands=stands)[2]["stands"].iloc[0]
     assert st["lattice"].startswith("no planting lattice")
@@ -215,10 +222,7 @@ def test_a_stand_whose_canopy_shows_rows_but_no_plants_says_so(tmp_path):
 
     cfg = fam._cfg("rows_only", [fam._stand((4, 1.2), 40, 1.5, crown_k=fam.CLOSED)],
                    slope=0.06)
-    pts, truth = fam.make_stand(cfg, 1)
-    las, stands = tmp_path / "c.las", tmp_path / "c.gpkg"
-    fam.write_las(pts, las)
-    fam.write_stands(truth, stands)
+    las, stands, truth = _stand_files(cfg, tmp_path)
     for kw in ({}, {"tile_size": 60, "workers": 1}):
         st = lt.find_trees(las, params=TreeParams(spacing="auto"), stands=stands,
                            **kw)[2]["stands"].iloc[0]

@@ -133,11 +133,14 @@ def canopy_rows_only(spectrum, cell: float = 0.0) -> str | None:
     if not isinstance(spectrum, dict):
         spectrum = {"power": spectrum, "looks": 1.0}
     first = _first_axis(spectrum["power"], cell, spectrum.get("looks", 1.0))
-    if first is None or 1.0 / float(first[1][first[3]]) < CANOPY_ROW_MIN:
+    if first is None:
         return None
-    r, freqs, i, j = first
+    _, freqs, i, j = first
+    apart = 1.0 / float(freqs[j])
+    if apart < CANOPY_ROW_MIN:
+        return None
     rows = (float(np.degrees(CANOPY_THETAS[i])) + 90.0) % 180.0
-    return (f"no planting lattice: the canopy shows rows {1.0 / float(freqs[j]):.1f} m apart "
+    return (f"no planting lattice: the canopy shows rows {apart:.1f} m apart "
             f"at {rows:.0f}°, but no plant spacing along them (crowns merged): give the spacing, "
             "-spacing RxC")
 

@@ -100,8 +100,9 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
             for k in lost:
                 if powers.get(k) is not None:
                     own[k] = canopy_planting(*tops_of(k), powers[k], cell)
-                    if own[k] is None and canopy_rows_only(powers[k], cell):
-                        out[("why", k)] = canopy_rows_only(powers[k], cell)
+                    why = None if own[k] is not None else canopy_rows_only(powers[k], cell)
+                    if why:
+                        out[("why", k)] = why
 
     def all_tops():
         if "all" not in out:

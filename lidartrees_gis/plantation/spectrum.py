@@ -59,16 +59,13 @@ def _spectral_guess(dx, dy, cell: float = 0.0):
     cells = 360 * max((hi - lo) * extent, 1.0)  # directions x independent frequencies
     level = float(np.sqrt(np.log(cells / SPECTRAL_CHANCE) / max(dx.size, 1)))
 
-    def spectrum(theta):
-        return projection_peak(dx, dy, theta, lo, hi)
-
     thetas = np.radians(np.arange(0.0, 180.0, 0.5))
-    found = [spectrum(t) for t in thetas]
+    found = [projection_peak(dx, dy, t, lo, hi) for t in thetas]
     k1 = int(np.argmax([a for a, _ in found]))
     t1, p1 = float(thetas[k1]), found[k1][1]
     # the other axis: at right angles (the lattice is rectangular), within 2°
     cand = t1 + np.pi / 2 + np.radians(np.arange(-2.0, 2.01, 0.25))
-    other = [spectrum(t) for t in cand]
+    other = [projection_peak(dx, dy, t, lo, hi) for t in cand]
     k2 = int(np.argmax([a for a, _ in other]))
     t2, p2 = float(cand[k2]), other[k2][1]
     if min(found[k1][0], other[k2][0]) < level:
