@@ -171,7 +171,8 @@ def _inventory_options(min_height, returns, dtm, drop_class, keep_class, a_srs, 
 
 def volume(input, plots, output=None, *, stands, trees_table=None, plot_id=None,
            plot_radius=None, stand_id=None, volume_equation=None, approach="aba", res="auto",
-           min_height=2.0, returns="all", dtm="auto", resamples=400, drop_class=(7, 18),
+           min_height=2.0, returns="all", dtm="auto", resamples=400, estimator="eblup",
+           drop_class=(7, 18),
            keep_class=None, a_srs=None, t_srs=None, tile_size=None, workers=None,
            overwrite=False, progress=None, **read_kw):
     """Wood volume per stand from points and field plots (``lidartrees volume``;
@@ -188,6 +189,9 @@ def volume(input, plots, output=None, *, stands, trees_table=None, plot_id=None,
     volume_equation : str or (b0, b1, b2), optional
         Schumacher-Hall ``V = b0·DAP^b1·HT^b2``.
     approach : {"aba", "trees", "both"}
+    estimator : {"eblup", "model"}
+        A stand's figure: the model's corrected by the stand's own plots (eblup), or the
+        model's alone.
 
     Returns
     -------
@@ -207,6 +211,6 @@ def volume(input, plots, output=None, *, stands, trees_table=None, plot_id=None,
     return volume_run(input, plots, output, stands=stands, trees_table=trees_table,
                       plot_id=plot_id, plot_radius=plot_radius, stand_id=stand_id,
                       options=VolumeOptions(approach=approach, equation=eq, res=res,
-                                            resamples=resamples),
+                                            resamples=resamples, estimator=estimator),
                       metric=o["metric"], surface=o["surface"], read=o["read"],
                       tiling=o["tiling"], out=o["out"], progress=progress)

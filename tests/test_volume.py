@@ -78,6 +78,19 @@ def test_cli_both_approaches(farm, tmp_path):
         err = est / truth["stands"]["volume_m3_ha"] - 1
         assert np.abs(err).max() < 0.15, (pre, err)  # 9 plots, 1.2 ha stands (bench: 8 ha)
     assert (stands["basal_area_m2_ha_low"] < stands["basal_area_m2_ha"]).all()
+    # the stand's figure: the model's, moved by its own plots' weight (0: the model's alone)
+    for pre in ("volume", "volume_trees"):
+        w = stands[f"{pre}_plots_weight"].to_numpy()
+        assert ((w >= 0) & (w < 1)).all()
+        same = np.isclose(stands[f"{pre}_m3_ha"], stands[f"{pre}_model_m3_ha"], atol=2e-3)
+        assert (same == (w == 0)).all(), (pre, w)
+    out2 = tmp_path / "model.gpkg"
+    assert main(_args(d, out2, "-volume_equation", EQ, "-estimator", "model",
+                      "-resamples", "50")) == 0
+    s2 = gpd.read_file(out2, layer="stands")
+    assert (s2["volume_plots_weight"] == 0).all()
+    assert np.allclose(s2["volume_m3_ha"], s2["volume_model_m3_ha"], atol=2e-3)
+    assert np.allclose(s2["volume_model_m3_ha"], stands["volume_model_m3_ha"], atol=2e-3)
     assert {"dap_cm", "volume_m3"} <= set(tops.columns) and len(tops) > 10000
     assert tops["dap_cm"].between(5, 40).mean() > 0.95
     with rasterio.open(tmp_path / "vol_volume.tif") as ds:

@@ -247,7 +247,8 @@ def volume(input, plots, output, **kw):
     n = _number(kw, "resamples", int)
     opts = VolumeOptions(approach=kw.get("approach") or "aba",
                          equation=Equation.parse(eq) if eq not in (None, "") else None,
-                         res=kw.get("res") or "auto", resamples=400 if n is None else n)
+                         res=kw.get("res") or "auto", resamples=400 if n is None else n,
+                         estimator=kw.get("estimator") or "eblup")
     r = volume_run(input, plots, output, stands=kw.get("stands"),
                    trees_table=kw.get("trees_table") or None, plot_id=kw.get("plot_id"),
                    plot_radius=_number(kw, "plot_radius"), stand_id=kw.get("stand_id"),

@@ -478,6 +478,9 @@ COMMANDS = {
                default="auto", unit="m"),
          Param("resamples", "float", "Bootstrap resamples of the plots for the intervals",
                flag="-resamples", default=400, advanced=True),
+         Param("estimator", "choice", "A stand's figure: eblup = the model's, corrected by "
+               "the stand's own plots as far as they can be trusted; model = the model's alone",
+               flag="-estimator", choices=("eblup", "model"), default="eblup", advanced=True),
          *METRIC_PARAMS, *CLASSES,
          *(p for p in TILES if p.name in ("tile_size", "workers", "scheduler")),
          *READ_GEO, CO, OVERWRITE), "volume", outputs=("output",)),

@@ -23,7 +23,9 @@ range, robust to the wild refits of resamples of few distinct plots; inflated by
 the variance of a stand's departure from the model (:func:`stand_variance`: the between-stand
 variance of the plots' leave-one-out residuals, or what their mean square holds beyond the
 plots' own sampling variance computed from their trees, the larger) plus the residual variance
-over the stand's cells.
+over the stand's cells. With ``stand_effect`` (the default) a stand's figure is moved by its
+own plots' mean residual, weighted by how far they can be trusted (:func:`stand_effects`),
+and its departure variance becomes the corrected figure's.
 """
 from __future__ import annotations
 
@@ -49,6 +51,9 @@ MAX_PREDICTORS = 3
 SCORE = "loo_rel_rmse_pct"
 MIN_PLOTS = 5
 BOOTSTRAP = 400
+#: a stand's own plots correct the model's figure only when the plots' residuals differ
+#: between stands at this level (one-way analysis of variance, :func:`between_variance`)
+STAND_ALPHA = 0.05
 
 
 def max_predictors(n: int) -> int:
@@ -201,9 +206,10 @@ def select_model(metrics: dict, y, target: str = "volume_m3_ha", *, forms=FORMS)
     return chosen, table
 
 
-def between_variance(resid, stand) -> float:
+def between_variance(resid, stand, alpha: float | None = None) -> float:
     """Between-stand variance of plot residuals (one-way random effects, method of moments);
-    0 when fewer than two stands hold two plots or more."""
+    0 when fewer than two stands hold two plots or more, or, with ``alpha``, when the
+    one-way analysis of variance does not find the stands' means to differ at that level."""
     resid = np.asarray(resid, float)
     stand = np.asarray(stand)
     ok = stand >= 0
@@ -215,6 +221,12 @@ def between_variance(resid, stand) -> float:
     within = float(np.sum((resid - means[inv]) ** 2) / max(resid.size - ids.size, 1))
     n0 = (resid.size - np.sum(counts ** 2) / resid.size) / max(ids.size - 1, 1)
     msb = float(np.sum(counts * (means - resid.mean()) ** 2) / max(ids.size - 1, 1))
+    if alpha is not None:
+        from scipy import stats
+
+        dof = resid.size - ids.size
+        if within <= 0 or stats.f.sf(msb / within, ids.size - 1, dof) > alpha:
+            return 0.0
     return max(0.0, (msb - within) / n0)
 
 
@@ -252,9 +264,53 @@ def stand_variance(resid_loo, plot_stand, plot_noise=None) -> float:
     return s2
 
 
+def stand_effects(resid, plot_stand, n_stands: int, s2_stand: float, plot_noise=None,
+                  s2_weight=None) -> dict:
+    """Each stand's departure from the model as its own plots show it, shrunk by how far they
+    can be trusted (the stand-level EBLUP of a one-way random effects model of the plots'
+    residuals, Battese, Harter & Fuller 1988; Breidenbach & Astrup 2012 on forest stands):
+    ``effect = γ · ē``, ``γ = σ²_b / (σ²_b + D)``, ``ē`` the mean residual of the stand's
+    plots, ``σ²_b`` the between-stand variance (``s2_weight``, default ``s2_stand``) and ``D``
+    the variance of ``ē``: the largest of the residuals' variance within stands, their mean
+    square less ``σ²_b`` and the plots' own sampling variance (``plot_noise``, from their
+    trees), over the stand's number of plots. A stand without a plot, or ``σ²_b`` = 0, keeps
+    the model's figure.
+
+    Returns ``effect``, ``weight`` (γ), ``plots`` (per stand) and ``mse``: the variance of
+    the corrected stand's departure from the truth, ``(1 - γ)² · s2_stand + γ² · D``
+    (``s2_stand`` without a plot)."""
+    resid = np.asarray(resid, float)
+    stand = np.asarray(plot_stand)
+    ok = (stand >= 0) & np.isfinite(resid)
+    k = np.bincount(stand[ok], minlength=n_stands)[:n_stands].astype(float)
+    ebar = np.bincount(stand[ok], weights=resid[ok], minlength=n_stands)[:n_stands] \
+        / np.maximum(k, 1)
+    means = ebar[stand[ok]]
+    dof = max(int(ok.sum()) - int((k > 0).sum()), 0)
+    within = (float(np.sum((resid[ok] - means) ** 2)) / dof if dof
+              else float(np.mean(resid[ok] ** 2)) if ok.any() else 0.0)
+    s2 = max(float(s2_stand), 0.0)
+    sb = s2 if s2_weight is None else max(float(s2_weight), 0.0)
+    if ok.any():  # what the residuals hold beyond the stands' departures: few stands hold
+        # two plots, so their spread alone is a poor guess of the plots' own
+        within = max(within, float(np.mean(resid[ok] ** 2)) - sb)
+    v = np.full(n_stands, within)
+    if plot_noise is not None:
+        noise = np.asarray(plot_noise, float)
+        v = np.maximum(v, np.bincount(stand[ok], weights=np.where(np.isfinite(noise[ok]),
+                                                                   noise[ok], 0.0),
+                                      minlength=n_stands)[:n_stands] / np.maximum(k, 1))
+    d = v / np.maximum(k, 1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        g = np.where((k > 0) & (sb > 0), sb / (sb + d), 0.0)
+    g = np.nan_to_num(g)
+    return {"effect": g * ebar, "weight": g, "plots": k.astype(int),
+            "mse": np.where(k > 0, (1 - g) ** 2 * s2 + g ** 2 * d, s2)}
+
+
 def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_stand,
                n_stands: int, plot_stand, *, plot_noise=None, resamples: int = BOOTSTRAP,
-               seed: int = 0, reselect: bool = True) -> dict:
+               seed: int = 0, reselect: bool = True, stand_effect: bool = True) -> dict:
     """Each stand's mean of the cell predictions and its 95 % interval (module doc).
     ``reselect``: each bootstrap resample chooses its model again (:func:`select_model` on
     its distinct plots) before it is refitted, so the interval holds the choice's
@@ -266,8 +322,18 @@ def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_
     n, p = y.size, len(model.predictors)
     Xc = model.design(cell_metrics)
     valid = np.isfinite(Xc).all(axis=1)
-    est, cells = _stand_means(np.where(valid, model.predict(cell_metrics), np.nan), cell_stand,
-                              n_stands)
+    synth, cells = _stand_means(np.where(valid, model.predict(cell_metrics), np.nan),
+                                cell_stand, n_stands)
+    resid = y - model.stats["loo"]
+    s2_b = stand_variance(resid, plot_stand, plot_noise)
+    fx = stand_effects(y - model.stats["fitted"], plot_stand, n_stands, s2_b, plot_noise,
+                       s2_weight=between_variance(y - model.stats["fitted"], plot_stand,
+                                                  STAND_ALPHA)
+                       if stand_effect else 0.0)
+    gw = fx["weight"]
+    est = synth + fx["effect"]
+    ps = np.asarray(plot_stand)
+    in_stand = [np.flatnonzero(ps == k) for k in range(n_stands)]
     rng = np.random.default_rng(seed)
     designs = {}
 
@@ -305,16 +371,22 @@ def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_
         pred = np.full(Xr.shape[0], np.nan)
         with np.errstate(over="ignore"):
             pred[ok] = np.exp(eta + s2 / 2) if m.form == "loglog" else eta
-        reps.append(_stand_means(pred, cell_stand, n_stands)[0])
+        rep = _stand_means(pred, cell_stand, n_stands)[0]
+        if gw.any():  # the resample's model corrected by the stand's own plots, as above
+            with np.errstate(over="ignore"):
+                fp = Xp @ coef
+                fp = np.exp(fp + s2 / 2) if m.form == "loglog" else fp
+            rep = rep + gw * np.array([np.mean(y[i] - fp[i]) if i.size else 0.0
+                                       for i in in_stand])
+        reps.append(rep)
     v_boot = boot_variance(reps, n_stands) * n / max(n - p - 1, 1)
-    resid = y - model.stats["loo"]
-    s2_b = stand_variance(resid, plot_stand, plot_noise)
     s2_cells = float(np.mean(resid ** 2))
     with np.errstate(invalid="ignore", divide="ignore"):
-        se = np.sqrt(v_boot + s2_b + s2_cells / np.maximum(cells, 1))
+        se = np.sqrt(v_boot + fx["mse"] + s2_cells / np.maximum(cells, 1))
     t = t975(n - p - 1)
     return {"estimate": est, "low": np.maximum(est - t * se, 0.0), "high": est + t * se,
-            "se": se, "cells": cells, "sigma2_stand": s2_b, "resamples": len(reps)}
+            "se": se, "cells": cells, "sigma2_stand": s2_b, "resamples": len(reps),
+            "synthetic": synth, "stand_effect": fx["effect"], "plots_weight": gw}
 
 
 def fit_dap_height(dap, ht) -> tuple:
@@ -332,7 +404,7 @@ def fit_dap_height(dap, ht) -> tuple:
 
 
 def ratio_stands(field_v, lidar_v, stand_lidar_v, plot_stand, *, plot_noise=None,
-                 resamples: int = BOOTSTRAP, seed: int = 0) -> dict:
+                 resamples: int = BOOTSTRAP, seed: int = 0, stand_effect: bool = True) -> dict:
     """Tree approach: each stand's detected trees' volume per ha times the ratio ``R = Σ
     field / Σ detected`` over the plots (missed trees and the DAP model's bias), with the
     interval of :func:`aba_stands` (bootstrap of R over the plots, between-stand variance of
@@ -356,9 +428,15 @@ def ratio_stands(field_v, lidar_v, stand_lidar_v, plot_stand, *, plot_noise=None
     loo = np.array([(f.sum() - f[i]) / max(d.sum() - d[i], 1e-9) * d[i] for i in range(n)])
     resid = f - loo
     s2_b = stand_variance(resid, plot_stand, plot_noise)
+    synth = est
+    fx = stand_effects(f - R * d, plot_stand, sv.size, s2_b, plot_noise,
+                       s2_weight=between_variance(f - R * d, plot_stand, STAND_ALPHA)
+                       if stand_effect else 0.0)
+    est = synth + fx["effect"]
     with np.errstate(invalid="ignore"):
-        se = np.sqrt(v_r * n / max(n - 1, 1) * sv ** 2 + s2_b)
+        se = np.sqrt(v_r * n / max(n - 1, 1) * sv ** 2 + fx["mse"])
     t = t975(n - 1)
     return {"estimate": est, "low": np.maximum(est - t * se, 0), "high": est + t * se, "se": se,
-            "ratio": float(R), "loo": loo, "sigma2_stand": s2_b,
+            "ratio": float(R), "loo": loo, "sigma2_stand": s2_b, "synthetic": synth,
+            "stand_effect": fx["effect"], "plots_weight": fx["weight"],
             **{f"plot_{k}": v for k, v in fit_stats(f, R * d, loo, 1).items()}}

@@ -17,6 +17,10 @@ FIELD_DOCS = {
     "volume_m3_high": "upper end of the 95 % interval of volume_m3",
     "basal_area_m2_ha": "basal area (m²/ha)",
     "n_plots": "field plots in the stand", "n_plots_model": "field plots the model was fitted on",
+    "volume_model_m3_ha": "the model's figure alone (m³/ha), before the stand's own plots "
+                          "correct it",
+    "volume_plots_weight": "weight (0-1) of the stand's own plots' departure from the model in "
+                           "volume_m3_ha (0: the model's figure)",
     "predicted_m3_ha": "volume the model predicts for the plot (m³/ha)",
     "residual_m3_ha": "measured - predicted (m³/ha)",
     "loo_predicted_m3_ha": "volume predicted by the model fitted without this plot (m³/ha)",
@@ -30,6 +34,9 @@ def _stand_fields(prefix, est, area_ha):
         v = np.asarray(est[key], float)
         out[f"{prefix}_m3_ha{suffix}"] = np.round(v, 3)
         out[f"{prefix}_m3{suffix}"] = np.round(v * area_ha, 2)
+    if "synthetic" in est:
+        out[f"{prefix}_model_m3_ha"] = np.round(np.asarray(est["synthetic"], float), 3)
+        out[f"{prefix}_plots_weight"] = np.round(np.asarray(est["plots_weight"], float), 3)
     return out
 
 
@@ -51,9 +58,12 @@ def build(area, plots, stands, meas, pm, plot_stand, res_aba, res_trees, spec, c
               "plot_area_m2": float(np.mean(plots.area_m2)), "cell_res_m": spec.res,
               "metrics": {"min_height": metric.min_height, "returns": metric.returns,
                           "points": r["points"]}, "bootstrap_resamples": options.resamples,
+              "estimate": "the model's stand mean plus the stand's own plots' mean residual "
+                          "times its weight (stand-level EBLUP: between-stand variance / "
+                          "(between-stand variance + the mean residual's variance))",
               "interval": "95 %: estimate ± t(0.975, n-p-1)·sqrt(bootstrap variance over the "
-                          "plots (model refitted) + between-stand residual variance + residual "
-                          "variance / cells)"}
+                          "plots (model refitted) + the corrected stand's departure variance "
+                          "+ residual variance / cells)"}
     if meas["trees"] is not None:
         t = meas["trees"]
         eq = t["equation"]

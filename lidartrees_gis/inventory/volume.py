@@ -34,6 +34,7 @@ from .plots import Zones, check_inside, load_plots
 from .tiles import MetricOptions, area_metrics
 
 APPROACHES = ("aba", "trees", "both")
+ESTIMATORS = ("eblup", "model")
 #: plot layer fields taken as the plot's measured volume (m³/ha) when there is no tree table
 PLOT_VOLUME_FIELDS = ("volumem3ha", "volumeha", "volha", "vtccha", "volume", "vol")
 
@@ -53,6 +54,9 @@ class VolumeOptions:
     resamples : int
         Bootstrap resamples of the plots for the intervals.
     seed : int
+    estimator : {"eblup", "model"}
+        A stand's figure: the model's, corrected by the stand's own plots as far as they can
+        be trusted (eblup, :func:`~.models.stand_effects`), or the model's alone.
     """
 
     approach: str = "aba"
@@ -60,11 +64,14 @@ class VolumeOptions:
     res: object = "auto"
     resamples: int = BOOTSTRAP
     seed: int = 0
+    estimator: str = "eblup"
 
     def __post_init__(self):
-        check_fields(self, {"res": "m"}, skip=("seed",))
+        check_fields(self, {"res": "m"}, skip=("seed", "estimator"))
         if self.approach not in APPROACHES:
             raise InputError(f"-approach: expected aba, trees or both, got {self.approach!r}")
+        if self.estimator not in ESTIMATORS:
+            raise InputError(f"-estimator: expected eblup or model, got {self.estimator!r}")
         if not (isinstance(self.res, str) and self.res == "auto"):
             try:
                 ok = float(self.res) > 0
@@ -165,7 +172,8 @@ def _aba(pm, figures, cm, cell_stand, n_stands, plot_stand, options) -> dict:
         noise = figures.get("sampling_var_m3_ha") if key == "volume" else None
         out[key] = (model, table, aba_stands(model, pm, y, cm, cell_stand, n_stands,
                                              plot_stand, plot_noise=noise,
-                                             resamples=options.resamples, seed=options.seed))
+                                             resamples=options.resamples, seed=options.seed,
+                                             stand_effect=options.estimator == "eblup"))
     return out
 
 
@@ -235,7 +243,8 @@ def volume_run(input, plots, output, *, stands, trees_table=None, plot_id=None,
         res_trees["stands"] = ratio_stands(y, res_trees["detected_m3_ha"],
                                            res_trees["stand_detected_m3_ha"], plot_stand,
                                            plot_noise=meas["figures"].get("sampling_var_m3_ha"),
-                                           resamples=options.resamples, seed=options.seed)
+                                           resamples=options.resamples, seed=options.seed,
+                                           stand_effect=options.estimator == "eblup")
     prog.update(0.92, "writing")
     layers, report, vol_grid = outs.build(area, pl, st, meas, pm, plot_stand, res_aba, res_trees,
                                           spec, cm, options, metric, r)

@@ -984,6 +984,14 @@
       <translation>Reamostragens bootstrap das parcelas para os intervalos</translation>
     </message>
     <message>
+      <source>Estimator</source>
+      <translation>Estimador</translation>
+    </message>
+    <message>
+      <source>A stand's figure: eblup = the model's, corrected by the stand's own plots as far as they can be trusted; model = the model's alone</source>
+      <translation>O valor do talhão: eblup = o do modelo, corrigido pelas parcelas do próprio talhão na medida em que merecem confiança; model = só o do modelo</translation>
+    </message>
+    <message>
       <source>Demo</source>
       <translation>Demonstração</translation>
     </message>
