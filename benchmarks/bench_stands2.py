@@ -10,8 +10,10 @@ and compares each stand of the output with the generator's truth:
 
 * lattice: found (spacing within 0.05 m, row azimuth within 1 degree, modulo 180);
 * stocking error (points) and the planting positions counted against the truth's;
-* gaps: share of reported missing/uncertain positions within 0.5 m of a true missing position
-  (precision), share of true missing positions with such a report (recall);
+* gaps: share of the positions reported missing within 0.5 m of a true missing position
+  (precision, as ``bench_stands.py``), the same share of the uncertain ones (a field check,
+  not a reported gap), and the share of true missing positions reported missing or
+  uncertain (recall);
 * trees: F-score of the tree tops (suppressed ones included) against the truth's tops
   (one-to-one, within min(1.5 m, half the plant spacing)).
 
@@ -130,8 +132,13 @@ def score_stand(st, stands, gaps, tops):
     gx, gy = (g.geometry.x.to_numpy(), g.geometry.y.to_numpy()) if len(g) else ([], [])
     true_rep = _near(gx, gy, pos["x"][miss], pos["y"][miss], 0.5)
     found = _near(pos["x"][miss], pos["y"][miss], gx, gy, 0.5)
-    row["gaps_reported"] = int(len(g))
-    row["gap_precision"] = round(float(true_rep.mean()), 3) if len(g) else None
+    called = (g["status"] == "missing").to_numpy() if len(g) else np.zeros(0, bool)
+    row["gaps_reported"] = int(called.sum())
+    # reported gaps: the positions called missing (as bench_stands.py counts them); an
+    # uncertain position is a field check, not a reported gap, but counts as found below
+    row["gap_precision"] = round(float(true_rep[called].mean()), 3) if called.any() else None
+    row["unresolved_true_share"] = round(float(true_rep[~called].mean()), 3) \
+        if (~called).any() else None
     row["missing_recall"] = round(float(found.mean()), 3) if miss.any() else None
     t = tops[tops["stand_id"].astype(str) == tid] if len(tops) else tops
     radius = min(1.5, 0.5 * lat["plant_spacing"])
