@@ -7,7 +7,7 @@ import numpy as np
 from lidartrees_gis.inventory.models import aba_stands, select_model
 
 
-def _population(rng, cells_per_stand=120):
+def _population(rng, cells_per_stand=120, effect=15.0):
     """Cell metrics of six stands (heights 14-30 m) and each cell's volume, linear in the
     height with a stand effect and cell noise; the stands' true volumes are their cells'
     means."""
@@ -21,8 +21,8 @@ def _population(rng, cells_per_stand=120):
          "cover": np.clip(rng.normal(80, 6, top.size), 30, 99),
          "pzabovezmean": np.clip(rng.normal(55, 5, top.size), 10, 95),
          "zsd": np.abs(rng.normal(5, 1, top.size)), "zL2": np.abs(rng.normal(3, 0.6, top.size))}
-    effect = rng.normal(0, 15.0, 6)[stand]
-    vol = np.maximum(-120.0 + 21.0 * zq95 + effect + rng.normal(0, 25.0, top.size), 5.0)
+    shift = rng.normal(0, effect, 6)[stand] if effect else 0.0
+    vol = np.maximum(-120.0 + 21.0 * zq95 + shift + rng.normal(0, 25.0, top.size), 5.0)
     return m, vol, stand
 
 
@@ -53,23 +53,33 @@ def test_stand_intervals_hold_the_truth_over_plot_draws():
 
 
 def test_stand_effects_weights_by_hand():
-    """γ = σ²_b / (σ²_b + D), D the mean residual's variance (the larger of the within-stand
-    residual variance and the plots' own sampling variance, over the stand's plots)."""
+    """γ = σ²_b / (σ²_b + D), D the mean residual's variance: the largest of the within-stand
+    residual variance at its upper 80 % bound, the residuals' mean square less σ²_b and the
+    plots' own sampling variance, over the stand's plots."""
+    from scipy import stats
+
     from lidartrees_gis.inventory.models import stand_effects
 
     resid = np.array([12.0, 8.0, -10.0, -10.0, 5.0])
     stand = np.array([0, 0, 1, 1, 2])
     fx = stand_effects(resid, stand, 4, 100.0, plot_noise=np.full(5, 4.0))
-    # within: ((2² + 2²) + 0) / (5 - 3) = 4; D = 4 / 2 for stands 0-1, 4 / 1 for stand 2
-    assert np.allclose(fx["weight"], [100 / 102, 100 / 102, 100 / 104, 0.0])
-    assert np.allclose(fx["effect"], [10 * 100 / 102, -10 * 100 / 102, 5 * 100 / 104, 0.0])
+    # within: ((2² + 2²) + 0) / (5 - 3) = 4, times 2 / chi2(0.2; 2); mean square less σ²_b < 0
+    w = 4.0 * 2 / stats.chi2.ppf(0.2, 2)
+    g = np.array([100 / (100 + w / 2), 100 / (100 + w / 2), 100 / (100 + w), 0.0])
+    assert np.allclose(fx["weight"], g)
+    assert np.allclose(fx["effect"], [10 * g[0], -10 * g[1], 5 * g[2], 0.0])
     assert list(fx["plots"]) == [2, 2, 1, 0]
     # a stand without a plot keeps the model's figure and its whole departure variance
-    assert fx["mse"][3] == 100.0 and fx["mse"][0] < 2.0 + 1e-9
-    # the plots' own noise larger than the within-stand spread: it sets D
-    fx = stand_effects(resid, stand, 4, 100.0, plot_noise=np.full(5, 100.0))
+    assert fx["mse"][3] == 100.0
+    assert np.isclose(fx["mse"][0], (1 - g[0]) ** 2 * 100 + g[0] ** 2 * w / 2)
+    # the plots' own noise larger than the within-stand spread: it sets D (a NaN plot left out)
+    fx = stand_effects(resid, stand, 4, 100.0, plot_noise=np.array([100, 100, 100, np.nan,
+                                                                    100.0]))
     assert np.allclose(fx["weight"][:3], [100 / 150, 100 / 150, 0.5])
     assert not stand_effects(resid, stand, 4, 0.0)["weight"].any()
+    # a plot of a stand beyond the stands given, or with no residual, is left out
+    fx = stand_effects(np.r_[resid, np.nan, 50.0], np.r_[stand, 0, 7], 4, 100.0)
+    assert list(fx["plots"]) == [2, 2, 1, 0]
 
 
 def test_stand_effect_corrects_a_site_the_heights_cannot_see():
@@ -108,3 +118,27 @@ def test_stand_effect_corrects_a_site_the_heights_cannot_see():
                                                              np.mean(err[False]))
     assert held[True] / n >= 0.85, held[True] / n
     assert np.mean(half[True]) < 0.75 * np.mean(half[False])
+
+
+def test_no_stand_effect_leaves_the_model_alone():
+    """Stands that differ only as the metrics say, two plots a stand, 100 draws: the analysis
+    of variance finds them to differ in at most a tenth of the draws (5 % expected), and the
+    intervals hold the truth about as often as the model's alone."""
+    rng = np.random.default_rng(5)
+    m, vol, stand = _population(rng, effect=0.0)
+    true = np.bincount(stand, weights=vol) / np.bincount(stand)
+    held, weighed, n = {True: 0, False: 0}, 0, 0
+    for k in range(100):
+        r = np.random.default_rng(1000 + k)
+        idx = np.concatenate([r.choice(np.flatnonzero(stand == s), 2, replace=False)
+                              for s in range(6)])
+        pm = {key: v[idx] for key, v in m.items()}
+        model, _ = select_model(pm, vol[idx])
+        for se in (True, False):
+            e = aba_stands(model, pm, vol[idx], m, stand, 6, stand[idx], resamples=60, seed=k,
+                           reselect=False, stand_effect=se)
+            held[se] += int(((e["low"] <= true) & (true <= e["high"])).sum())
+            weighed += int(se and e["plots_weight"].any())
+        n += 6
+    assert weighed <= 10, weighed
+    assert held[True] / n >= held[False] / n - 0.02, (held[True] / n, held[False] / n)

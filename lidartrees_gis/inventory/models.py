@@ -54,6 +54,9 @@ BOOTSTRAP = 400
 #: a stand's own plots correct the model's figure only when the plots' residuals differ
 #: between stands at this level (one-way analysis of variance, :func:`between_variance`)
 STAND_ALPHA = 0.05
+#: the plots' spread within stands enters a stand's weight at this lower quantile of its
+#: chi-square (its upper 80 % bound), :func:`stand_effects`
+WITHIN_BOUND = 0.2
 
 
 def max_predictors(n: int) -> int:
@@ -212,7 +215,7 @@ def between_variance(resid, stand, alpha: float | None = None) -> float:
     one-way analysis of variance does not find the stands' means to differ at that level."""
     resid = np.asarray(resid, float)
     stand = np.asarray(stand)
-    ok = stand >= 0
+    ok = (stand >= 0) & np.isfinite(resid)
     resid, stand = resid[ok], stand[ok]
     ids, inv, counts = np.unique(stand, return_inverse=True, return_counts=True)
     if (counts >= 2).sum() < 2:
@@ -271,9 +274,9 @@ def stand_effects(resid, plot_stand, n_stands: int, s2_stand: float, plot_noise=
     residuals, Battese, Harter & Fuller 1988; Breidenbach & Astrup 2012 on forest stands):
     ``effect = γ · ē``, ``γ = σ²_b / (σ²_b + D)``, ``ē`` the mean residual of the stand's
     plots, ``σ²_b`` the between-stand variance (``s2_weight``, default ``s2_stand``) and ``D``
-    the variance of ``ē``: the largest of the residuals' variance within stands, their mean
-    square less ``σ²_b`` and the plots' own sampling variance (``plot_noise``, from their
-    trees), over the stand's number of plots. A stand without a plot, or ``σ²_b`` = 0, keeps
+    the variance of ``ē``: the largest of the residuals' variance within stands (at its upper
+    80 % bound, :data:`WITHIN_BOUND`), their mean square less ``σ²_b`` and the plots' own
+    sampling variance (``plot_noise``, from their trees), over the stand's number of plots. A stand without a plot, or ``σ²_b`` = 0, keeps
     the model's figure.
 
     Returns ``effect``, ``weight`` (γ), ``plots`` (per stand) and ``mse``: the variance of
@@ -281,25 +284,28 @@ def stand_effects(resid, plot_stand, n_stands: int, s2_stand: float, plot_noise=
     (``s2_stand`` without a plot)."""
     resid = np.asarray(resid, float)
     stand = np.asarray(plot_stand)
-    ok = (stand >= 0) & np.isfinite(resid)
+    ok = (stand >= 0) & (stand < n_stands) & np.isfinite(resid)
     k = np.bincount(stand[ok], minlength=n_stands)[:n_stands].astype(float)
     ebar = np.bincount(stand[ok], weights=resid[ok], minlength=n_stands)[:n_stands] \
         / np.maximum(k, 1)
-    means = ebar[stand[ok]]
     dof = max(int(ok.sum()) - int((k > 0).sum()), 0)
-    within = (float(np.sum((resid[ok] - means) ** 2)) / dof if dof
-              else float(np.mean(resid[ok] ** 2)) if ok.any() else 0.0)
     s2 = max(float(s2_stand), 0.0)
     sb = s2 if s2_weight is None else max(float(s2_weight), 0.0)
-    if ok.any():  # what the residuals hold beyond the stands' departures: few stands hold
-        # two plots, so their spread alone is a poor guess of the plots' own
-        within = max(within, float(np.mean(resid[ok] ** 2)) - sb)
-    v = np.full(n_stands, within)
-    if plot_noise is not None:
+    within = float(np.mean(resid[ok] ** 2)) - sb if ok.any() else 0.0
+    if dof:
+        # the spread within the stands, at its upper 80 % bound: a test that found the stands
+        # to differ found it most often where that spread came out small by chance
+        from scipy import stats
+
+        spread = float(np.sum((resid[ok] - ebar[stand[ok]]) ** 2)) / dof
+        within = max(within, spread * dof / float(stats.chi2.ppf(WITHIN_BOUND, dof)))
+    v = np.full(n_stands, max(within, 0.0))
+    if plot_noise is not None:  # the plots' own sampling variance, from their trees
         noise = np.asarray(plot_noise, float)
-        v = np.maximum(v, np.bincount(stand[ok], weights=np.where(np.isfinite(noise[ok]),
-                                                                   noise[ok], 0.0),
-                                      minlength=n_stands)[:n_stands] / np.maximum(k, 1))
+        fin = ok & np.isfinite(noise)
+        kn = np.bincount(stand[fin], minlength=n_stands)[:n_stands]
+        vn = np.bincount(stand[fin], weights=noise[fin], minlength=n_stands)[:n_stands]
+        v = np.maximum(v, vn / np.maximum(kn, 1))
     d = v / np.maximum(k, 1)
     with np.errstate(invalid="ignore", divide="ignore"):
         g = np.where((k > 0) & (sb > 0), sb / (sb + d), 0.0)
@@ -415,28 +421,34 @@ def ratio_stands(field_v, lidar_v, stand_lidar_v, plot_stand, *, plot_noise=None
         raise InputError("PLOTS: no detected tree inside any plot; the tree approach needs "
                          "the plots' detected trees")
     R = f.sum() / d.sum()
-    rng = np.random.default_rng(seed)
-    rs = []
-    for _ in range(resamples):
-        idx = rng.integers(0, n, n)
-        if d[idx].sum() > 0:
-            rs.append(f[idx].sum() / d[idx].sum())
-    v_r = float(boot_variance(np.array(rs)[:, None], 1)[0])
     sv = np.asarray(stand_lidar_v, float)
-    est = R * sv
+    synth = R * sv
     # leave-one-out ratio predictions of each plot
     loo = np.array([(f.sum() - f[i]) / max(d.sum() - d[i], 1e-9) * d[i] for i in range(n)])
     resid = f - loo
     s2_b = stand_variance(resid, plot_stand, plot_noise)
-    synth = est
     fx = stand_effects(f - R * d, plot_stand, sv.size, s2_b, plot_noise,
                        s2_weight=between_variance(f - R * d, plot_stand, STAND_ALPHA)
                        if stand_effect else 0.0)
+    gw = fx["weight"]
     est = synth + fx["effect"]
+    ps = np.asarray(plot_stand)
+    in_stand = [np.flatnonzero(ps == k) for k in range(sv.size)]
+    # the stands' figures over resamples of the plots: R again, and each stand corrected by
+    # its own plots' residuals from that R (as :func:`aba_stands`)
+    rng = np.random.default_rng(seed)
+    reps = []
+    for _ in range(resamples):
+        idx = rng.integers(0, n, n)
+        if d[idx].sum() > 0:
+            rb = f[idx].sum() / d[idx].sum()
+            reps.append(rb * sv + gw * np.array([np.mean(f[i] - rb * d[i]) if i.size else 0.0
+                                                 for i in in_stand]))
+    v_r = boot_variance(np.array(reps), sv.size) if reps else np.full(sv.size, np.nan)
     with np.errstate(invalid="ignore"):
-        se = np.sqrt(v_r * n / max(n - 1, 1) * sv ** 2 + fx["mse"])
+        se = np.sqrt(v_r * n / max(n - 1, 1) + fx["mse"])
     t = t975(n - 1)
     return {"estimate": est, "low": np.maximum(est - t * se, 0), "high": est + t * se, "se": se,
             "ratio": float(R), "loo": loo, "sigma2_stand": s2_b, "synthetic": synth,
-            "stand_effect": fx["effect"], "plots_weight": fx["weight"],
+            "stand_effect": fx["effect"], "plots_weight": gw,
             **{f"plot_{k}": v for k, v in fit_stats(f, R * d, loo, 1).items()}}
