@@ -48,16 +48,27 @@ def _args(d, out, *extra):
             "11.28", "-q", *extra]
 
 
-def test_cli_both_approaches(farm, tmp_path):
+def test_cli_both_approaches(farm, tmp_path, capsys):
     import geopandas as gpd
     import rasterio
 
     d, truth, rows = farm
     out = tmp_path / "vol.gpkg"
+    capsys.readouterr()
     assert main(_args(d, out, "-volume_equation", EQ, "-approach", "both",
                       "-resamples", "200")) == 0
+    printed = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("stand T")]
     plots = gpd.read_file(out, layer="plots")
     stands = gpd.read_file(out, layer="stands")
+    # one line a stand: its volume and interval as in the layer, its plots
+    assert len(printed) == 6
+    for ln, (_, s) in zip(printed, stands.iterrows()):
+        assert ln.startswith(f"stand {s['stand_id']}: volume {s['volume_m3_ha']:.1f} m³/ha "
+                             f"({s['volume_m3_ha_low']:.1f}-{s['volume_m3_ha_high']:.1f}")
+        assert f"trees {s['volume_trees_m3_ha']:.1f} m³/ha" in ln
+        assert ln.endswith(f"{s['area_ha']:.2f} ha, {s['n_plots']} plot"
+                           + ("" if s["n_plots"] == 1 else "s"))
+        assert ("its plots' weight" in ln) == bool(s["volume_trees_plots_weight"] > 0)
     tops = gpd.read_file(out, layer="tree_tops")
     assert len(plots) == 9 and plots.crs.to_epsg() == 29194
     for f in ("volume_m3_ha", "predicted_m3_ha", "residual_m3_ha", "loo_predicted_m3_ha",

@@ -263,4 +263,7 @@ def volume(input, plots, output, **kw):
                        f"RMSE {m['loo_rmse_pct']:.1f} %)"
     if "total_m3" in rep:
         out["total_m3"] = round(rep["total_m3"], 1)
+    from ..inventory.outputs import stand_lines
+
+    out.update(stand_lines(r["layers"]["stands"]))
     return out

@@ -123,6 +123,33 @@ def build(area, plots, stands, meas, pm, plot_stand, res_aba, res_trees, spec, c
     return layers, report, vol_grid
 
 
+def stand_lines(stands) -> dict:
+    """Each stand's figures on one line (the CLI's ``stand ID: ...``): volume per ha and in
+    the stand with their 95 % intervals, the plots in it and, where they moved the model's
+    figure, their weight; the tree approach's figure and the basal area where there are."""
+    def num(v, places=1):
+        return "-" if v is None or not np.isfinite(v) else f"{v:.{places}f}"
+
+    out = {}
+    for _, r in stands.iterrows():
+        parts = []
+        for pre, what in (("volume", "volume"), ("volume_trees", "trees")):
+            if f"{pre}_m3_ha" not in r:
+                continue
+            w = r.get(f"{pre}_plots_weight")
+            moved = (f"; model {num(r[f'{pre}_model_m3_ha'])}, its plots' weight {w:.2f}"
+                     if w is not None and w > 0 else "")
+            parts.append(f"{what} {num(r[f'{pre}_m3_ha'])} m³/ha ({num(r[f'{pre}_m3_ha_low'])}-"
+                         f"{num(r[f'{pre}_m3_ha_high'])}{moved}), {num(r[f'{pre}_m3'], 0)} m³ "
+                         f"({num(r[f'{pre}_m3_low'], 0)}-{num(r[f'{pre}_m3_high'], 0)})")
+        if "basal_area_m2_ha" in r:
+            parts.append(f"basal area {num(r['basal_area_m2_ha'])} m²/ha")
+        parts.append(f"{r['area_ha']:.2f} ha, {int(r['n_plots'])} plot"
+                     f"{'' if int(r['n_plots']) == 1 else 's'}")
+        out[f"stand {r['stand_id']}"] = "; ".join(parts)
+    return out
+
+
 def _model_report(model, table, est) -> dict:
     s = model.stats
     keep = ("r2", "adj_r2", "rmse", "rmse_pct", "bias", "bias_pct", "loo_rmse", "loo_rmse_pct",
