@@ -10,7 +10,8 @@ from .errors import (  # noqa: E402
     Cancelled, CRSError, InputError, LidarTreesError, OutputExistsError, ReadError,
 )
 
-_API = ("canopy_height", "find_trees", "classify_ground", "point_info", "raster_profile")
+_API = ("canopy_height", "find_trees", "classify_ground", "point_info", "raster_profile",
+        "metrics", "volume")
 
 __all__ = ["__version__", "LidarTreesError", "InputError", "ReadError", "CRSError",
            "OutputExistsError", "Cancelled", *_API]

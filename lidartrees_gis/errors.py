@@ -37,3 +37,10 @@ class Cancelled(LidarTreesError):
 class DataWarning(UserWarning):
     """Something in the input was odd but the run went on (points outside the header bounds,
     a point count that does not match the file); the CLI prints it as one line."""
+
+
+def listing(names, first: int = 5) -> str:
+    """``a, b, c`` of the first ``first`` names, `` ...`` after them when there are more (an
+    error or warning names what is wrong without hiding that it named only some)."""
+    names = [str(n) for n in names]
+    return ", ".join(names[:first]) + (" ..." if len(names) > first else "")

@@ -39,6 +39,19 @@ def test_help_shows_every_default(capsys):
         assert text in out
 
 
+def test_top_level_help_lists_every_command(capsys):
+    """``lidartrees -h`` (a summary with a per cent sign once broke argparse's formatting)."""
+    from lidartrees_gis.cli.commands import COMMANDS
+
+    with pytest.raises(SystemExit) as e:
+        main(["-h"])
+    assert e.value.code == 0
+    out = capsys.readouterr().out
+    for name in COMMANDS:
+        assert f"    {name} " in out or f"    {name}\n" in out, name
+    assert "95 % intervals" in " ".join(out.split())
+
+
 def test_info_quiet_still_prints_the_result(small_las, capsys):
     assert main(["info", str(small_las), "-q"]) == 0
     out = capsys.readouterr().out

@@ -63,9 +63,11 @@ def test_cli_both_approaches(farm, tmp_path, capsys):
     # one line a stand: its volume and interval as in the layer, its plots
     assert len(printed) == 6
     for ln, (_, s) in zip(printed, stands.iterrows()):
-        assert ln.startswith(f"stand {s['stand_id']}: volume {s['volume_m3_ha']:.1f} m³/ha "
-                             f"({s['volume_m3_ha_low']:.1f}-{s['volume_m3_ha_high']:.1f}")
-        assert f"trees {s['volume_trees_m3_ha']:.1f} m³/ha" in ln
+        lo, hi = s["volume_m3_ha_low"], s["volume_m3_ha_high"]
+        err = 100 * (hi - lo) / 2 / s["volume_m3_ha"]
+        assert ln.startswith(f"stand {s['stand_id']}: area-based {s['volume_m3_ha']:.1f} m³/ha "
+                             f"±{err:.1f} % ({lo:.1f}-{hi:.1f}"), ln
+        assert f"tree method {s['volume_trees_m3_ha']:.1f} m³/ha ±" in ln
         assert ln.endswith(f"{s['area_ha']:.2f} ha, {s['n_plots']} plot"
                            + ("" if s["n_plots"] == 1 else "s"))
         assert ("its plots' weight" in ln) == bool(s["volume_trees_plots_weight"] > 0)
@@ -122,7 +124,7 @@ def test_cli_both_approaches(farm, tmp_path, capsys):
 
 
 def test_python_in_memory_writes_nothing(farm, tmp_path, monkeypatch):
-    from lidartrees_gis import api as lt
+    import lidartrees_gis as lt  # the package's own name, as docs/VOLUME.md writes it
 
     d, truth, _ = farm
     monkeypatch.chdir(tmp_path)
@@ -168,6 +170,15 @@ def test_bad_inputs_one_line_no_output(farm, tmp_path, capsys):
         tmp_path / "more.gpkg")
     a[2] = str(tmp_path / "more.gpkg")
     assert "have no trees" in _bad(capsys, a, tmp_path, out)
+    # a plot id mistyped in the table: both the layer's plot and the table's id are named
+    text = (d / "arvores.csv").read_text(encoding="cp1252").splitlines()
+    typo = [text[0]] + [ln.replace(ln.split(";")[0], "77", 1) if ln.split(";")[0] == "2"
+                        else ln for ln in text[1:]]
+    (tmp_path / "typo.csv").write_text("\n".join(typo) + "\n", encoding="cp1252")
+    a = _args(d, out, "-volume_equation", EQ)
+    a[a.index("-trees_table") + 1] = str(tmp_path / "typo.csv")
+    line = _bad(capsys, a, tmp_path, out)
+    assert "have no trees" in line and ": 2 (its plots not in PLOTS: 77)" in line, line
     # DAP in millimetres
     text = (d / "arvores.csv").read_text(encoding="cp1252").splitlines()
     mm = [text[0]] + [";".join(f[:2] + [str(round(float(f[2].replace(",", ".")) * 10))] + f[3:])
@@ -209,3 +220,37 @@ def test_field_table_forms(tmp_path):
     assert f["volume_m3_ha"][0] == pytest.approx(v1)
     with pytest.raises(InputError, match="b0,b1,b2"):
         Equation.parse("1,2")
+
+
+def test_warnings_extra_table_plots_and_overlaps(farm, tmp_path):
+    """Trees of a plot the layer does not hold, and two plots overlapping: the run goes on,
+    each said in one warning naming them; the extra plot's trees change no plot figure."""
+    import warnings
+
+    import geopandas as gpd
+    import shapely
+
+    import lidartrees_gis as lt
+    from lidartrees_gis.errors import DataWarning
+
+    d, _, _ = farm
+    text = (d / "arvores.csv").read_text(encoding="cp1252").splitlines()
+    more = [ln.replace(ln.split(";")[0], "88", 1) for ln in text[1:] if ln.split(";")[0] == "1"]
+    (tmp_path / "more.csv").write_text("\n".join(text + more) + "\n", encoding="cp1252")
+    pl = gpd.read_file(d / "plots.gpkg")
+    pl.loc[1, "geometry"] = shapely.Point(pl.geometry[0].x + 15.0, pl.geometry[0].y)
+    pl.to_file(tmp_path / "overlap.gpkg")
+    kw = dict(stands=d / "stands.gpkg", plot_radius=11.28, volume_equation=EQ, resamples=30)
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        r = lt.volume(d / "farm.laz", tmp_path / "overlap.gpkg", trees_table=tmp_path / "more.csv",
+                      **kw)
+    said = [str(w.message) for w in rec if issubclass(w.category, DataWarning)]
+    assert any("1 plot(s) not in PLOTS (88)" in s for s in said), said
+    assert any("1 pair(s) of plots overlap (1 and 2)" in s for s in said), said
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DataWarning)  # the overlap, said above
+        base = lt.volume(d / "farm.laz", tmp_path / "overlap.gpkg",
+                         trees_table=d / "arvores.csv", **kw)
+    a, b = r["layers"]["plots"], base["layers"]["plots"]
+    assert np.allclose(a["n_trees"], b["n_trees"]) and len(a) == len(b) == 9

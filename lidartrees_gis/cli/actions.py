@@ -265,5 +265,5 @@ def volume(input, plots, output, **kw):
         out["total_m3"] = round(rep["total_m3"], 1)
     from ..inventory.outputs import stand_lines
 
-    out.update(stand_lines(r["layers"]["stands"]))
+    out.update(stand_lines(r["layers"]["stands"], opts.approach))
     return out

@@ -64,7 +64,8 @@ def build_parser() -> argparse.ArgumentParser:
                          "30 s), so the first command runs as fast as the later ones")
     sub = ap.add_subparsers(dest="command", metavar="COMMAND")
     for cmd in COMMANDS.values():
-        sp = sub.add_parser(cmd.name, help=cmd.summary, description=cmd.summary + ". " + cmd.help,
+        sp = sub.add_parser(cmd.name, help=cmd.summary.replace("%", "%%"),
+                            description=cmd.summary + ". " + cmd.help,
                             allow_abbrev=False)
         for p in cmd.params:
             _add_param(sp, p)

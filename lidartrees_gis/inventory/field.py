@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, listing
 from ..io.names import normalise
 
 #: the names accepted for each column of a tree table (normalised, see io.names.normalise)
@@ -192,14 +192,16 @@ def plot_figures(trees: dict, plot_ids, plot_area_m2) -> dict:
     k = np.array([index.get(str(p), -1) for p in trees["plot"]])
     if (k < 0).all():
         raise InputError(f"-trees_table: {trees['path']}: none of its plot ids "
-                         f"({', '.join(sorted(set(map(str, trees['plot'])))[:5])}) is a plot of "
-                         f"PLOTS ({', '.join(ids[:5])}); check -plot_id")
+                         f"({listing(sorted(set(map(str, trees['plot']))))}) is a plot of "
+                         f"PLOTS ({listing(ids)}); check -plot_id")
     n = np.bincount(k[k >= 0], minlength=len(ids))
     empty = [ids[i] for i in np.flatnonzero(n == 0)]
+    extra = sorted(set(str(p) for p, i in zip(trees["plot"], k) if i < 0))
     if empty:
         raise InputError(f"PLOTS: {len(empty)} plots have no trees in {trees['path']}: "
-                         f"{', '.join(empty[:8])}; drop them from the plots layer or add their "
-                         "trees")
+                         f"{listing(empty, 8)}"
+                         + (f" (its plots not in PLOTS: {listing(extra, 8)})" if extra else "")
+                         + "; drop them from the plots layer or add their trees")
     sel = k >= 0
     ha = np.asarray(plot_area_m2, float) / 1e4
     g = np.pi * (trees["dap"][sel] / 200.0) ** 2
@@ -215,4 +217,4 @@ def plot_figures(trees: dict, plot_ids, plot_area_m2) -> dict:
     return {"volume_m3_ha": vol / ha, "basal_area_m2_ha": ba / ha, "trees_ha": n / ha,
             "sampling_var_m3_ha": noise,
             "n_trees": n.astype(float), "mean_ht": mh,
-            "unmatched_trees": int((~sel).sum())}
+            "unmatched_trees": int((~sel).sum()), "unmatched_plots": extra}

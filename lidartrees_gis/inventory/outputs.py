@@ -123,25 +123,31 @@ def build(area, plots, stands, meas, pm, plot_stand, res_aba, res_trees, spec, c
     return layers, report, vol_grid
 
 
-def stand_lines(stands) -> dict:
-    """Each stand's figures on one line (the CLI's ``stand ID: ...``): volume per ha and in
-    the stand with their 95 % intervals, the plots in it and, where they moved the model's
-    figure, their weight; the tree approach's figure and the basal area where there are."""
+def stand_lines(stands, approach: str = "aba") -> dict:
+    """Each stand's figures on one line (the CLI's ``stand ID: ...``): volume per ha (with
+    the interval's half-width in %, the sampling error a report gives) and in the stand with
+    their 95 % intervals, by the area-based model and/or the tree method, the model's figure
+    and the plots' weight where the stand's own plots moved it, the basal area, the plots."""
     def num(v, places=1):
         return "-" if v is None or not np.isfinite(v) else f"{v:.{places}f}"
 
     out = {}
     for _, r in stands.iterrows():
         parts = []
-        for pre, what in (("volume", "volume"), ("volume_trees", "trees")):
+        for pre in ("volume", "volume_trees"):
             if f"{pre}_m3_ha" not in r:
                 continue
+            what = "tree method" if pre == "volume_trees" or approach == "trees" \
+                else "area-based"
+            est, lo, hi = r[f"{pre}_m3_ha"], r[f"{pre}_m3_ha_low"], r[f"{pre}_m3_ha_high"]
+            # the half-width in % of the figure: the sampling error a report gives
+            err = f" ±{100 * (hi - lo) / 2 / est:.1f} %" if est and est > 0 else ""
             w = r.get(f"{pre}_plots_weight")
             moved = (f"; model {num(r[f'{pre}_model_m3_ha'])}, its plots' weight {w:.2f}"
                      if w is not None and w > 0 else "")
-            parts.append(f"{what} {num(r[f'{pre}_m3_ha'])} m³/ha ({num(r[f'{pre}_m3_ha_low'])}-"
-                         f"{num(r[f'{pre}_m3_ha_high'])}{moved}), {num(r[f'{pre}_m3'], 0)} m³ "
-                         f"({num(r[f'{pre}_m3_low'], 0)}-{num(r[f'{pre}_m3_high'], 0)})")
+            parts.append(f"{what} {num(est)} m³/ha{err} ({num(lo)}-{num(hi)}{moved}), "
+                         f"{num(r[f'{pre}_m3'], 0)} m³ ({num(r[f'{pre}_m3_low'], 0)}-"
+                         f"{num(r[f'{pre}_m3_high'], 0)})")
         if "basal_area_m2_ha" in r:
             parts.append(f"basal area {num(r['basal_area_m2_ha'])} m²/ha")
         parts.append(f"{r['area_ha']:.2f} ha, {int(r['n_plots'])} plot"

@@ -201,6 +201,32 @@ def load_plots(source, crs=None, *, plot_id: str | None = None,
     return Plots(tuple(ids), geoms, x, y, radius, attrs, name)
 
 
+def warn_overlaps(plots: Plots) -> int:
+    """Warn (one line naming the first pairs) when plots overlap: their trees are counted in
+    both, and two plots in one place weigh a stand twice. Returns the number of pairs."""
+    import shapely
+
+    g = np.asarray(plots.geoms)
+    if g.size < 2:
+        return 0
+    i, j = shapely.STRtree(g).query(g, predicate="intersects")
+    keep = i < j
+    i, j = i[keep], j[keep]
+    if i.size:
+        keep = shapely.area(shapely.intersection(g[i], g[j])) > 0
+        i, j = i[keep], j[keep]
+    if i.size:
+        import warnings
+
+        from ..errors import DataWarning, listing
+
+        warnings.warn(DataWarning(
+            f"PLOTS: {plots.source}: {i.size} pair(s) of plots overlap "
+            f"({listing([f'{plots.ids[a]} and {plots.ids[b]}' for a, b in zip(i, j)], 3)}): "
+            "their trees count in both"), stacklevel=2)
+    return int(i.size)
+
+
 def check_inside(plots: Plots, extent, label: str) -> None:
     """Refuse plots lying outside the points' extent (one line naming the first ones)."""
     x0, y0, x1, y1 = extent
@@ -208,7 +234,9 @@ def check_inside(plots: Plots, extent, label: str) -> None:
     out = (b[:, 0] < x0 - 1e-6) | (b[:, 1] < y0 - 1e-6) | (b[:, 2] > x1 + 1e-6) | \
         (b[:, 3] > y1 + 1e-6)
     if out.any():
-        names = [plots.ids[i] for i in np.flatnonzero(out)[:5]]
+        from ..errors import listing
+
+        names = [plots.ids[i] for i in np.flatnonzero(out)]
         raise InputError(f"PLOTS: {plots.source}: {int(out.sum())} of {len(plots)} plots lie "
                          f"outside the points of {label} (x {x0:.0f}..{x1:.0f}, y {y0:.0f}.."
-                         f"{y1:.0f}): {', '.join(names)}; check the CRS or drop them")
+                         f"{y1:.0f}): {listing(names)}; check the CRS or drop them")

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..catalog.catalog import TilingOptions
 from ..bounds import check_fields
-from ..errors import InputError
+from ..errors import InputError, listing
 from ..io.names import normalise
 from ..io.options import ReadOptions
 from ..io.output import OutputOptions, check_outputs
@@ -30,7 +30,7 @@ from .chain import open_points
 from .field import Equation, complete_trees, plot_figures, read_trees
 from .models import BOOTSTRAP, aba_stands, check_plots, fit_dap_height, ratio_stands, \
     select_model
-from .plots import Zones, check_inside, load_plots
+from .plots import Zones, check_inside, load_plots, warn_overlaps
 from .tiles import MetricOptions, area_metrics
 
 APPROACHES = ("aba", "trees", "both")
@@ -170,10 +170,19 @@ def _aba(pm, figures, cm, cell_stand, n_stands, plot_stand, options) -> dict:
         y = figures[target]
         model, table = select_model(pm, y, target)
         noise = figures.get("sampling_var_m3_ha") if key == "volume" else None
-        out[key] = (model, table, aba_stands(model, pm, y, cm, cell_stand, n_stands,
-                                             plot_stand, plot_noise=noise,
-                                             resamples=options.resamples, seed=options.seed,
-                                             stand_effect=options.estimator == "eblup"))
+        est = aba_stands(model, pm, y, cm, cell_stand, n_stands, plot_stand, plot_noise=noise,
+                         resamples=options.resamples, seed=options.seed,
+                         stand_effect=options.estimator == "eblup")
+        if key == "volume" and est["resamples"] < options.resamples / 2:
+            import warnings
+
+            from ..errors import DataWarning
+
+            warnings.warn(DataWarning(
+                f"PLOTS: {est['resamples']} of {options.resamples} resamples of the {y.size} "
+                "plots held enough distinct plots to choose and refit the model: the "
+                "intervals rest on few refits; more plots make them steadier"), stacklevel=2)
+        out[key] = (model, table, est)
     return out
 
 
@@ -210,11 +219,22 @@ def volume_run(input, plots, output, *, stands, trees_table=None, plot_id=None,
     area = open_points(input, read)
     pl = load_plots(plots, area.crs, plot_id=plot_id, plot_radius=plot_radius)
     check_inside(pl, area.extent, area.label())
+    warn_overlaps(pl)
     st = load_stands(stands, area.crs, stand_id)
     meas = _plot_measurements(pl, trees_table, options.equation)
     y = meas["figures"]["volume_m3_ha"]
     check_plots(len(pl), "a volume model" if options.approach != "trees" else
                 "the tree approach")
+    extra = meas["figures"].get("unmatched_plots")
+    if extra:
+        import warnings
+
+        from ..errors import DataWarning
+
+        warnings.warn(DataWarning(
+            f"-trees_table: {trees_table}: the trees of {len(extra)} plot(s) not in PLOTS "
+            f"({listing(extra, 8)}) enter the height, DAP and volume relations only, no "
+            "plot's figures"), stacklevel=2)
     res = _cell_res(options, pl)
     prog.update(0.02, "metrics")
     r = area_metrics(area, cells_res=res, zones=[pl.zones], options=metric, surface=surface,
@@ -223,7 +243,7 @@ def volume_run(input, plots, output, *, stands, trees_table=None, plot_id=None,
     empty = [pl.ids[i] for i in np.flatnonzero(pm["n"] == 0)]
     if empty:
         raise InputError(f"PLOTS: {len(empty)} plots hold no return above -min_height: "
-                         f"{', '.join(empty[:8])}; outside the flight, or in a clearing?")
+                         f"{listing(empty, 8)}; outside the flight, or in a clearing?")
     spec, grid = r["cells"]
     stand_zones = Zones.of_polygons(st.geoms)
     cm, cell_stand = _cells(spec, grid, stand_zones)
