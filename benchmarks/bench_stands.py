@@ -100,6 +100,12 @@ def _stocking(r: dict, truth, gpkg) -> dict:
     else:
         out["gaps_true_share"] = None
         out["gaps_on_suppressed"] = 0
+    # true missing positions reported missing or uncertain (issue 41's recall; the gaps above
+    # are the missing calls alone, as bench_stands2.py counts them too)
+    tm = out["truth_missing"]
+    found = round((out.get("true_gaps_found") or 0) * tm) \
+        + (out.get("uncertain_truth") or {}).get("missing", 0)
+    out["missing_found"] = round(found / tm, 3) if tm else None
     return out
 
 
