@@ -254,3 +254,24 @@ def test_warnings_extra_table_plots_and_overlaps(farm, tmp_path):
                          trees_table=d / "arvores.csv", **kw)
     a, b = r["layers"]["plots"], base["layers"]["plots"]
     assert np.allclose(a["n_trees"], b["n_trees"]) and len(a) == len(b) == 9
+
+
+def test_a_model_that_predicts_its_plots_poorly_is_said(recwarn):
+    """Plots whose volumes the metrics do not follow: the run goes on and one warning gives the
+    model and its leave-one-out R²."""
+    from lidartrees_gis.errors import DataWarning
+    from lidartrees_gis.inventory.volume import VolumeOptions, _aba
+
+    rng = np.random.default_rng(3)
+    n = 8
+    pm = {k: rng.uniform(10, 30, n) for k in ("zq95", "zq75", "zq50", "zmean", "zmax")}
+    pm.update(cover=rng.uniform(60, 90, n), pzabovezmean=rng.uniform(40, 60, n),
+              zsd=rng.uniform(3, 6, n), zL2=rng.uniform(2, 4, n))
+    cm = {k: v.repeat(10) for k, v in pm.items()}
+    figs = {"volume_m3_ha": rng.uniform(200, 400, n)}
+    out = _aba(pm, figs, cm, np.arange(n).repeat(10) % 3, 3, np.arange(n) % 3,
+               VolumeOptions(resamples=50))
+    said = [str(w.message) for w in recwarn if issubclass(w.category, DataWarning)]
+    r2 = out["volume"][0].stats["loo_r2"]
+    assert r2 < 0.5
+    assert any(f"leave-one-out R² {r2:.2f}" in s for s in said), said

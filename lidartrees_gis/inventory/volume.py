@@ -34,6 +34,8 @@ from .plots import Zones, check_inside, load_plots, warn_overlaps
 from .tiles import MetricOptions, area_metrics
 
 APPROACHES = ("aba", "trees", "both")
+#: below this leave-one-out R² the volume model is said to predict its plots poorly
+MIN_LOO_R2 = 0.5
 ESTIMATORS = ("eblup", "model")
 #: plot layer fields taken as the plot's measured volume (m³/ha) when there is no tree table
 PLOT_VOLUME_FIELDS = ("volumem3ha", "volumeha", "volha", "vtccha", "volume", "vol")
@@ -173,15 +175,24 @@ def _aba(pm, figures, cm, cell_stand, n_stands, plot_stand, options) -> dict:
         est = aba_stands(model, pm, y, cm, cell_stand, n_stands, plot_stand, plot_noise=noise,
                          resamples=options.resamples, seed=options.seed,
                          stand_effect=options.estimator == "eblup")
-        if key == "volume" and est["resamples"] < options.resamples / 2:
+        if key == "volume":
             import warnings
 
             from ..errors import DataWarning
 
-            warnings.warn(DataWarning(
-                f"PLOTS: {est['resamples']} of {options.resamples} resamples of the {y.size} "
-                "plots held enough distinct plots to choose and refit the model: the "
-                "intervals rest on few refits; more plots make them steadier"), stacklevel=2)
+            if est["resamples"] < options.resamples / 2:
+                warnings.warn(DataWarning(
+                    f"PLOTS: {est['resamples']} of {options.resamples} resamples of the "
+                    f"{y.size} plots held enough distinct plots to choose and refit the model: "
+                    "the intervals rest on few refits; more plots make them steadier"),
+                    stacklevel=2)
+            loo_r2 = model.stats.get("loo_r2", np.nan)
+            if not loo_r2 >= MIN_LOO_R2:
+                warnings.warn(DataWarning(
+                    f"PLOTS: the volume model ({model.equation()}) predicts the plots it was "
+                    f"not fitted on poorly (leave-one-out R² {loo_r2:.2f}): the stands' "
+                    "figures lean on the plots' mean; more plots, or plots over the stands' "
+                    "range of heights, make it steadier"), stacklevel=2)
         out[key] = (model, table, est)
     return out
 
