@@ -276,8 +276,8 @@ def stand_effects(resid, plot_stand, n_stands: int, s2_stand: float, plot_noise=
     plots, ``σ²_b`` the between-stand variance (``s2_weight``, default ``s2_stand``) and ``D``
     the variance of ``ē``: the largest of the residuals' variance within stands (at its upper
     80 % bound, :data:`WITHIN_BOUND`), their mean square less ``σ²_b`` and the plots' own
-    sampling variance (``plot_noise``, from their trees), over the stand's number of plots. A stand without a plot, or ``σ²_b`` = 0, keeps
-    the model's figure.
+    sampling variance (``plot_noise``, from their trees), over the stand's number of plots.
+    A stand without a plot, or ``σ²_b`` = 0, keeps the model's figure.
 
     Returns ``effect``, ``weight`` (γ), ``plots`` (per stand) and ``mse``: the variance of
     the corrected stand's departure from the truth, ``(1 - γ)² · s2_stand + γ² · D``
