@@ -435,7 +435,8 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
                 out[p.name.upper()] = kw[p.name]
                 self._load_with_style(p, kw[p.name], context, with_gaps=bool(kw.get("spacing")),
                                       with_stands=bool(kw.get("stands")),
-                                      prefix=kw.get("nln") or "")
+                                      prefix=kw.get("nln") or "",
+                                      with_trees=kw.get("approach") in ("trees", "both"))
         if self._name == "info":
             out["JSON"] = json.dumps(res)
             out["POINTS"] = res["points"]
@@ -450,7 +451,7 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
         return out
 
     def _load_with_style(self, p, path, context, with_gaps=False, with_stands=False,
-                         prefix=""):
+                         prefix="", with_trees=False):
         sdir = styles_dir()
         if self._name == "trees" and p.name == "output":
             for layer, qml in GPKG_LAYERS + ((GAPS_LAYER,) if with_gaps else ()) \
@@ -465,7 +466,9 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
                 context.addLayerToLoadOnCompletion(uri, details)
             return
         if self._name == "volume" and p.name == "output":
-            for layer, qml in (("stands", "volume_stands.qml"), ("plots", None)):
+            layers = (("stands", "volume_stands.qml"), ("plots", "volume_plots.qml")) + (
+                (("tree_tops", "tree_tops.qml"),) if with_trees else ())
+            for layer, qml in layers:
                 details = QgsProcessingContext.LayerDetails(layer, context.project(), layer)
                 if sdir and qml:
                     post = _Style(os.path.join(sdir, qml))

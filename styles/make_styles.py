@@ -166,6 +166,21 @@ def volume_stands_style(out):
     lyr.saveNamedStyle(str(out))
 
 
+def volume_plots_style(out):
+    """Plots of the volume command: a dark outline, no fill, labelled with the plot id, its
+    measured volume and the model's residual (m³/ha)."""
+    from qgis.core import QgsSingleSymbolRenderer
+
+    lyr = QgsVectorLayer("Polygon?field=plot_id:string&field=volume_m3_ha:double"
+                         "&field=residual_m3_ha:double", "plots", "memory")
+    lyr.setRenderer(QgsSingleSymbolRenderer(QgsFillSymbol.createSimple(
+        {"style": "no", "outline_color": "#7f0000", "outline_width": "0.7"})))
+    label(lyr, ("\"plot_id\" || '\\n' || format_number(\"volume_m3_ha\", 0) || ' m³/ha' || "
+                "if(\"residual_m3_ha\" IS NULL, '', ' (' || format_number(\"residual_m3_ha\", 0)"
+                " || ')')"), 8, "#7f0000")
+    lyr.saveNamedStyle(str(out))
+
+
 def volume_styles():
     """Only the volume command's styles (``make_styles.py volume``)."""
     with tempfile.TemporaryDirectory() as d:
@@ -173,6 +188,7 @@ def volume_styles():
         tiny_raster(tif)
         volume_style(tif, HERE / "volume.qml")
     volume_stands_style(HERE / "volume_stands.qml")
+    volume_plots_style(HERE / "volume_plots.qml")
 
 
 def main():

@@ -121,6 +121,7 @@ def test_cli_both_approaches(farm, tmp_path, capsys):
     styled = dict(con.execute("SELECT f_table_name, description FROM layer_styles"))
     con.close()
     assert "volume_stands.qml" in styled["stands"]
+    assert "volume_plots.qml" in styled["plots"]
 
 
 def test_python_in_memory_writes_nothing(farm, tmp_path, monkeypatch):

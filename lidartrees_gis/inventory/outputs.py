@@ -53,7 +53,8 @@ def build(area, plots, stands, meas, pm, plot_stand, res_aba, res_trees, spec, c
                         "area_m2": np.round(plots.area_m2, 2)})
     for k in ("volume_m3_ha", "basal_area_m2_ha", "trees_ha", "n_trees", "mean_ht"):
         if k in figs:
-            pdf[k] = np.round(figs[k], 4)
+            pdf[k] = np.round(figs[k], 4) if k != "n_trees" else \
+                np.asarray(figs[k]).astype(np.int64)
     report = {"approach": options.approach, "plots": len(plots), "stands": len(stands),
               "plot_area_m2": float(np.mean(plots.area_m2)), "cell_res_m": spec.res,
               "metrics": {"min_height": metric.min_height, "returns": metric.returns,
@@ -221,7 +222,8 @@ def write(output, side, layers, report, spec, vol_grid, res_aba, out, input, are
             done.append(side["png"])
         write_gpkg(output, layers, overwrite=out.overwrite, layer_options=out.layer_options,
                    metadata={"volume_report": report},
-                   styles={"stands": "volume_stands.qml", "tree_tops": "tree_tops.qml"})
+                   styles={"stands": "volume_stands.qml", "tree_tops": "tree_tops.qml",
+                           "plots": "volume_plots.qml"})
         for layer in ("plots", "stands"):
             describe_columns(output, layer, FIELD_DOCS)
     except BaseException:

@@ -223,7 +223,8 @@ def warn_overlaps(plots: Plots) -> int:
         warnings.warn(DataWarning(
             f"PLOTS: {plots.source}: {i.size} pair(s) of plots overlap "
             f"({listing([f'{plots.ids[a]} and {plots.ids[b]}' for a, b in zip(i, j)], 3)}): "
-            "their trees count in both"), stacklevel=2)
+            "their trees count in both, and the stands' intervals come out too narrow"),
+            stacklevel=2)
     return int(i.size)
 
 

@@ -51,6 +51,20 @@ def test_volume_layers_and_bad_input(qgis_app, tmp_path):
     err = st["volume_m3_ha"].to_numpy() / truth["stands"]["volume_m3_ha"] - 1
     assert np.abs(err).max() < 0.15
     assert (tmp_path / "v_volume.tif").exists() and (tmp_path / "v_report.json").exists()
+    # run and loaded as from the toolbox, both approaches: the stands, the plots (styled:
+    # outlined and labelled) and the trees join the project
+    import processing
+    from qgis.core import QgsProject
+
+    both = tmp_path / "both.gpkg"
+    processing.runAndLoadResults("lidartrees:volume", {**params, "OUTPUT": str(both),
+                                                       "APPROACH": "both"})
+    names = {ly.name(): ly for ly in QgsProject.instance().mapLayers().values()}
+    assert {"stands", "plots", "tree_tops"} <= set(names), sorted(names)
+    assert names["plots"].labelsEnabled() and names["plots"].featureCount() == 9
+    assert names["tree_tops"].featureCount() > 10000
+    plots = gpd.read_file(both, layer="plots")
+    assert str(plots["n_trees"].dtype).startswith("int")
     gpd.read_file(tmp_path / "plots.gpkg").iloc[:3].to_file(tmp_path / "three.gpkg")
     bad = tmp_path / "bad.gpkg"
     with pytest.raises(QgsProcessingException, match="at least 5") as e:
