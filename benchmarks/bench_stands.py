@@ -89,6 +89,7 @@ def _stocking(r: dict, truth, gpkg) -> dict:
                                   "suppressed": int((st == 2).sum()),
                                   "dominant": int((st == 1).sum())}
     gaps = gaps[gaps["status"] == "missing"] if "status" in gaps.columns else gaps
+    found = (out.get("uncertain_truth") or {}).get("missing", 0)
     if len(gaps):
         miss = pos["status"] == 0
         g_k, p_k = match_trees(gaps["x"].to_numpy(), gaps["y"].to_numpy(), pos["x"][inside],
@@ -97,14 +98,13 @@ def _stocking(r: dict, truth, gpkg) -> dict:
         out["gaps_true_share"] = round(float((st == 0).sum()) / len(gaps), 3)
         out["gaps_on_suppressed"] = int((st == 2).sum())
         out["true_gaps_found"] = round(float((st == 0).sum()) / max(int(miss.sum()), 1), 3)
+        found += int((st == 0).sum())
     else:
         out["gaps_true_share"] = None
         out["gaps_on_suppressed"] = 0
     # true missing positions reported missing or uncertain (issue 41's recall; the gaps above
     # are the missing calls alone, as bench_stands2.py counts them too)
     tm = out["truth_missing"]
-    found = round((out.get("true_gaps_found") or 0) * tm) \
-        + (out.get("uncertain_truth") or {}).get("missing", 0)
     out["missing_found"] = round(found / tm, 3) if tm else None
     return out
 

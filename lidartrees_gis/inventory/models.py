@@ -267,6 +267,26 @@ def stand_variance(resid_loo, plot_stand, plot_noise=None) -> float:
     return s2
 
 
+def plot_means(v, plot_stand, n_stands: int):
+    """``(mean of v over each stand's plots, number of plots)``, 0 for a stand without a plot;
+    plots outside the stands or with no value left out."""
+    v = np.asarray(v, float)
+    stand = np.asarray(plot_stand)
+    ok = (stand >= 0) & (stand < n_stands) & np.isfinite(v)
+    k = np.bincount(stand[ok], minlength=n_stands)[:n_stands].astype(float)
+    return np.bincount(stand[ok], weights=v[ok], minlength=n_stands)[:n_stands] \
+        / np.maximum(k, 1), k
+
+
+def _stand_correction(resid, plot_stand, n_stands: int, s2_stand: float, plot_noise,
+                      on: bool) -> dict:
+    """:func:`stand_effects` with the between-stand variance taken only where the analysis of
+    variance finds the stands to differ (:data:`STAND_ALPHA`); no weight when not ``on``."""
+    return stand_effects(resid, plot_stand, n_stands, s2_stand, plot_noise,
+                         s2_weight=between_variance(resid, plot_stand, STAND_ALPHA) if on
+                         else 0.0)
+
+
 def stand_effects(resid, plot_stand, n_stands: int, s2_stand: float, plot_noise=None,
                   s2_weight=None) -> dict:
     """Each stand's departure from the model as its own plots show it, shrunk by how far they
@@ -285,9 +305,7 @@ def stand_effects(resid, plot_stand, n_stands: int, s2_stand: float, plot_noise=
     resid = np.asarray(resid, float)
     stand = np.asarray(plot_stand)
     ok = (stand >= 0) & (stand < n_stands) & np.isfinite(resid)
-    k = np.bincount(stand[ok], minlength=n_stands)[:n_stands].astype(float)
-    ebar = np.bincount(stand[ok], weights=resid[ok], minlength=n_stands)[:n_stands] \
-        / np.maximum(k, 1)
+    ebar, k = plot_means(resid, stand, n_stands)
     dof = max(int(ok.sum()) - int((k > 0).sum()), 0)
     s2 = max(float(s2_stand), 0.0)
     sb = s2 if s2_weight is None else max(float(s2_weight), 0.0)
@@ -332,14 +350,10 @@ def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_
                                 cell_stand, n_stands)
     resid = y - model.stats["loo"]
     s2_b = stand_variance(resid, plot_stand, plot_noise)
-    fx = stand_effects(y - model.stats["fitted"], plot_stand, n_stands, s2_b, plot_noise,
-                       s2_weight=between_variance(y - model.stats["fitted"], plot_stand,
-                                                  STAND_ALPHA)
-                       if stand_effect else 0.0)
+    fx = _stand_correction(y - model.stats["fitted"], plot_stand, n_stands, s2_b, plot_noise,
+                           stand_effect)
     gw = fx["weight"]
     est = synth + fx["effect"]
-    ps = np.asarray(plot_stand)
-    in_stand = [np.flatnonzero(ps == k) for k in range(n_stands)]
     rng = np.random.default_rng(seed)
     designs = {}
 
@@ -382,8 +396,7 @@ def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_
             with np.errstate(over="ignore"):
                 fp = Xp @ coef
                 fp = np.exp(fp + s2 / 2) if m.form == "loglog" else fp
-            rep = rep + gw * np.array([np.mean(y[i] - fp[i]) if i.size else 0.0
-                                       for i in in_stand])
+            rep = rep + gw * plot_means(y - fp, plot_stand, n_stands)[0]
         reps.append(rep)
     v_boot = boot_variance(reps, n_stands) * n / max(n - p - 1, 1)
     s2_cells = float(np.mean(resid ** 2))
@@ -427,13 +440,9 @@ def ratio_stands(field_v, lidar_v, stand_lidar_v, plot_stand, *, plot_noise=None
     loo = np.array([(f.sum() - f[i]) / max(d.sum() - d[i], 1e-9) * d[i] for i in range(n)])
     resid = f - loo
     s2_b = stand_variance(resid, plot_stand, plot_noise)
-    fx = stand_effects(f - R * d, plot_stand, sv.size, s2_b, plot_noise,
-                       s2_weight=between_variance(f - R * d, plot_stand, STAND_ALPHA)
-                       if stand_effect else 0.0)
+    fx = _stand_correction(f - R * d, plot_stand, sv.size, s2_b, plot_noise, stand_effect)
     gw = fx["weight"]
     est = synth + fx["effect"]
-    ps = np.asarray(plot_stand)
-    in_stand = [np.flatnonzero(ps == k) for k in range(sv.size)]
     # the stands' figures over resamples of the plots: R again, and each stand corrected by
     # its own plots' residuals from that R (as :func:`aba_stands`)
     rng = np.random.default_rng(seed)
@@ -442,8 +451,7 @@ def ratio_stands(field_v, lidar_v, stand_lidar_v, plot_stand, *, plot_noise=None
         idx = rng.integers(0, n, n)
         if d[idx].sum() > 0:
             rb = f[idx].sum() / d[idx].sum()
-            reps.append(rb * sv + gw * np.array([np.mean(f[i] - rb * d[i]) if i.size else 0.0
-                                                 for i in in_stand]))
+            reps.append(rb * sv + gw * plot_means(f - rb * d, plot_stand, sv.size)[0])
     v_r = boot_variance(np.array(reps), sv.size) if reps else np.full(sv.size, np.nan)
     with np.errstate(invalid="ignore"):
         se = np.sqrt(v_r * n / max(n - 1, 1) + fx["mse"])

@@ -15,13 +15,14 @@
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..catalog.catalog import TilingOptions
 from ..bounds import check_fields
-from ..errors import InputError, listing
+from ..errors import DataWarning, InputError, listing
 from ..io.names import normalise
 from ..io.options import ReadOptions
 from ..io.output import OutputOptions, check_outputs
@@ -176,10 +177,6 @@ def _aba(pm, figures, cm, cell_stand, n_stands, plot_stand, options) -> dict:
                          resamples=options.resamples, seed=options.seed,
                          stand_effect=options.estimator == "eblup")
         if key == "volume":
-            import warnings
-
-            from ..errors import DataWarning
-
             if est["resamples"] < options.resamples / 2:
                 warnings.warn(DataWarning(
                     f"PLOTS: {est['resamples']} of {options.resamples} resamples of the "
@@ -238,10 +235,6 @@ def volume_run(input, plots, output, *, stands, trees_table=None, plot_id=None,
                 "the tree approach")
     extra = meas["figures"].get("unmatched_plots")
     if extra:
-        import warnings
-
-        from ..errors import DataWarning
-
         warnings.warn(DataWarning(
             f"-trees_table: {trees_table}: the trees of {len(extra)} plot(s) not in PLOTS "
             f"({listing(extra, 8)}) enter the height, DAP and volume relations only, no "
