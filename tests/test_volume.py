@@ -276,3 +276,21 @@ def test_a_model_that_predicts_its_plots_poorly_is_said(recwarn):
     r2 = out["volume"][0].stats["loo_r2"]
     assert r2 < 0.5
     assert any(f"leave-one-out R² {r2:.2f}" in s for s in said), said
+
+
+def test_stand_lines_never_print_nan():
+    """A stand without cells, or without an interval, is said in words on its line."""
+    import pandas as pd
+
+    from lidartrees_gis.inventory.outputs import stand_lines
+
+    nan = float("nan")
+    df = pd.DataFrame({"stand_id": ["A", "B"], "volume_m3_ha": [300.0, nan],
+                       "volume_m3_ha_low": [nan, nan], "volume_m3_ha_high": [nan, nan],
+                       "volume_m3": [600.0, nan], "volume_m3_low": [nan, nan],
+                       "volume_m3_high": [nan, nan], "area_ha": [2.0, 1.0], "n_plots": [1, 0]})
+    lines = stand_lines(df)
+    assert lines["stand A"] == ("area-based 300.0 m³/ha (no interval), 600 m³ (no interval); "
+                                "2.00 ha, 1 plot")
+    assert lines["stand B"].startswith("area-based: no figure")
+    assert not any("nan" in v.lower() for v in lines.values())

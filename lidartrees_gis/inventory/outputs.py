@@ -132,6 +132,11 @@ def stand_lines(stands, approach: str = "aba") -> dict:
     def num(v, places=1):
         return "-" if v is None or not np.isfinite(v) else f"{v:.{places}f}"
 
+    def span(lo, hi, places=1, extra=""):  # never a nan on the page
+        if not (np.isfinite(lo) and np.isfinite(hi)):
+            return f"(no interval{extra})"
+        return f"({lo:.{places}f}-{hi:.{places}f}{extra})"
+
     out = {}
     for _, r in stands.iterrows():
         parts = []
@@ -141,14 +146,18 @@ def stand_lines(stands, approach: str = "aba") -> dict:
             what = "tree method" if pre == "volume_trees" or approach == "trees" \
                 else "area-based"
             est, lo, hi = r[f"{pre}_m3_ha"], r[f"{pre}_m3_ha_low"], r[f"{pre}_m3_ha_high"]
+            if not np.isfinite(est):
+                parts.append(f"{what}: no figure (no cell of the plots' size in the stand)")
+                continue
             # the half-width in % of the figure: the sampling error a report gives
-            err = f" ±{100 * (hi - lo) / 2 / est:.1f} %" if est and est > 0 else ""
+            half = 100 * (hi - lo) / 2 / est if est > 0 else np.nan
+            err = f" ±{half:.1f} %" if np.isfinite(half) else ""
             w = r.get(f"{pre}_plots_weight")
             moved = (f"; model {num(r[f'{pre}_model_m3_ha'])}, its plots' weight {w:.2f}"
                      if w is not None and w > 0 else "")
-            parts.append(f"{what} {num(est)} m³/ha{err} ({num(lo)}-{num(hi)}{moved}), "
-                         f"{num(r[f'{pre}_m3'], 0)} m³ ({num(r[f'{pre}_m3_low'], 0)}-"
-                         f"{num(r[f'{pre}_m3_high'], 0)})")
+            parts.append(f"{what} {est:.1f} m³/ha{err} {span(lo, hi, 1, moved)}, "
+                         f"{num(r[f'{pre}_m3'], 0)} m³ "
+                         f"{span(r[f'{pre}_m3_low'], r[f'{pre}_m3_high'], 0)}")
         if "basal_area_m2_ha" in r:
             parts.append(f"basal area {num(r['basal_area_m2_ha'])} m²/ha")
         parts.append(f"{r['area_ha']:.2f} ha, {int(r['n_plots'])} plot"
