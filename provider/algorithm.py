@@ -17,10 +17,12 @@ import threading
 
 from qgis.core import (QgsProcessingAlgorithm, QgsProcessingContext,
                        QgsProcessingException, QgsProcessingLayerPostProcessorInterface,
-                       QgsProcessingOutputNumber, QgsProcessingOutputString,
+                       QgsProcessingOutputFile, QgsProcessingOutputNumber,
+                       QgsProcessingOutputRasterLayer, QgsProcessingOutputString,
                        QgsProcessingParameterBoolean, QgsProcessingParameterCrs,
                        QgsProcessingParameterDefinition, QgsProcessingParameterEnum,
-                       QgsProcessingParameterFile, QgsProcessingParameterFileDestination,
+                       QgsProcessingParameterField, QgsProcessingParameterFile,
+                       QgsProcessingParameterFileDestination,
                        QgsProcessingParameterFolderDestination, QgsProcessingParameterNumber,
                        QgsProcessingParameterPointCloudLayer,
                        QgsProcessingParameterRasterDestination, QgsProcessingParameterString,
@@ -34,6 +36,12 @@ def input_filter() -> str:
     pts, tables, every = (tr(t) for t in INPUT_FILTER_PARTS)
     return (f"{pts} (*.las *.laz *.xyz *.txt *.csv *.pts *.gz *.tif *.tiff);;"
             f"{tables} (*.gpkg *.csv *.shp);;{every} (*.*)")
+
+
+def table_filter() -> str:
+    """The file dialog's filter for a table of the user's (field trees): text or workbook."""
+    _, tables, every = (tr(t) for t in INPUT_FILTER_PARTS)
+    return f"{tables} (*.csv *.txt *.tsv *.xlsx);;{every} (*.*)"
 
 
 #: style applied to each raster/vector output when loaded (command, parameter name) -> qml
@@ -261,7 +269,10 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
         for p in self.cmd.params:
             if p.name == "json":
                 continue
-            lines.append(f"<b>{p.name.upper()}</b>: {tr(p.help)}")
+            # the dialog's label first, the id processing.run takes after it; the help in the
+            # dialog's words (each -flag of the text is the label of its parameter)
+            lines.append(f"<b>{_label(p)}</b> ({p.name.upper()}): "
+                         f"{qgis_message(self.cmd, tr(p.help))}")
         if self._name in REFERENCES:
             lines += ["", f"<i>{tr('Reference:')}</i> {reference(self._name)}"]
         lines += ["", f"{tr('Command line:')} lidartrees {self._name} --help"]
@@ -291,6 +302,9 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
             self.addOutput(QgsProcessingOutputNumber("POINTS", tr("Number of points")))
         if self._name == "trees":
             self.addOutput(QgsProcessingOutputNumber("TREES", tr("Number of trees")))
+        for key, kind, text in self.cmd.files:  # files written beside the outputs
+            cls = QgsProcessingOutputRasterLayer if kind == "raster" else QgsProcessingOutputFile
+            self.addOutput(cls(key.upper(), tr(text)))
 
     def _make(self, p):
         pid, label = p.name.upper(), _label(p)
@@ -332,6 +346,12 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
         if p.kind == "res":
             return QgsProcessingParameterString(pid, tr("Cell size (m), or auto"),
                                                 optional=not p.required)
+        if p.kind == "field":  # picked from the parent layer's fields; typed when a path
+            return QgsProcessingParameterField(pid, label, parentLayerParameterName=(
+                p.parent.upper()), optional=True)
+        if p.kind == "table":
+            return QgsProcessingParameterFile(pid, label, QgsProcessingParameterFile.File,
+                                              fileFilter=table_filter(), optional=optional)
         return QgsProcessingParameterString(pid, label, defaultValue=p.default, optional=True)
 
     def _value(self, p, parameters, context):
@@ -371,6 +391,11 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
             return crs.authid() or crs.toWkt()
         if p.kind == "vector":
             return vector_source(self.parameterAsVectorLayer(parameters, pid, context), pid)
+        if p.kind == "field":
+            names = self.parameterAsFields(parameters, pid, context)
+            return names[0] if names and names[0] else p.default
+        if p.kind == "table":
+            return self.parameterAsFile(parameters, pid, context) or None
         if p.kind == "kv":
             s = self.parameterAsString(parameters, pid, context)
             return [t for t in s.replace(";", " ").split() if t] or None
@@ -442,6 +467,9 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
             out["POINTS"] = res["points"]
         if self._name == "trees":
             out["TREES"] = res["trees"]
+        for key, _, _ in cmd.files:
+            if res.get(key):
+                out[key.upper()] = res[key]
         for k, v in res.items():
             if k not in ("table", "crs_wkt") and v not in (None, "") \
                     and not isinstance(v, (dict, list)):

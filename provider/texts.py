@@ -49,6 +49,7 @@ REFERENCES = {
 #: readable labels for parameters whose help text is too long to be one
 LABELS = {
     "stands": "Stands (talhões) polygon layer", "stand_id": "Stand id field",
+    "plot_id": "Plot id field", "trees_table": "Field trees table",
     "stand_csv": "Per-stand inventory CSV",
     "a_srs": "CRS of the input (assign)", "t_srs": "Reproject to CRS",
     "allow_no_crs": "Allow outputs without a CRS", "buffer": "Tile buffer",
@@ -141,6 +142,7 @@ def source_strings() -> list:
         for p in cmd.params:
             if p.name != "json":
                 out += [english_label(p), p.help]
+        out += [text for _, _, text in cmd.files]
     out += list(REFERENCES.values())
     seen, uniq = set(), []
     for s in out:

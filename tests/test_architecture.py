@@ -141,3 +141,19 @@ def test_every_room_is_a_package_with_a_docstring(room):
     assert init.exists()
     mods = [f for f in (PKG / room).glob("*.py")]
     assert all(ast.get_docstring(ast.parse(f.read_text())) for f in mods if f.name != "__init__.py")
+
+
+def test_every_field_parameter_names_a_layer_of_its_command():
+    """A field parameter (a dropdown of its layer's fields in QGIS) names a vector parameter
+    of the same command, and the files a command declares are named in its library result."""
+    from lidartrees_gis.cli.commands import COMMANDS
+    from lidartrees_gis.inventory.volume import side_outputs
+
+    fields = [(c.name, p) for c in COMMANDS.values() for p in c.params if p.kind == "field"]
+    assert {(c, p.name) for c, p in fields} >= {("volume", "plot_id"), ("volume", "stand_id"),
+                                                ("metrics", "plot_id"), ("trees", "stand_id")}
+    for name, p in fields:
+        kinds = {q.name: q.kind for q in COMMANDS[name].params}
+        assert kinds.get(p.parent) == "vector", (name, p.name, p.parent)
+    assert {k for k, _, _ in COMMANDS["volume"].files} == set(side_outputs("v.gpkg"))
+    assert all(kind in ("raster", "file") for c in COMMANDS.values() for _, kind, _ in c.files)

@@ -97,10 +97,24 @@ def test_cli_both_approaches(farm, tmp_path, capsys):
         assert ((w >= 0) & (w < 1)).all()
         same = np.isclose(stands[f"{pre}_m3_ha"], stands[f"{pre}_model_m3_ha"], atol=2e-3)
         assert (same == (w == 0)).all(), (pre, w)
-    out2 = tmp_path / "model.gpkg"
-    assert main(_args(d, out2, "-volume_equation", EQ, "-estimator", "model",
-                      "-resamples", "50")) == 0
+    # the same trees from a workbook (.xlsx, as crews keep them), the stands also as a pt-BR
+    # table: the same model, the table's rows the layer's
+    import pandas as pd
+
+    from lidartrees_gis.io.names import read_text_table
+
+    read_text_table(d / "arvores.csv").to_excel(tmp_path / "arvores.xlsx", index=False)
+    out2, csv = tmp_path / "model.gpkg", tmp_path / "talhoes.csv"
+    a = _args(d, out2, "-volume_equation", EQ, "-estimator", "model", "-resamples", "50",
+              "-stand_csv", str(csv), "-lco", "SEPARATOR=SEMICOLON", "-lco", "DECIMAL=COMMA")
+    a[a.index("-trees_table") + 1] = str(tmp_path / "arvores.xlsx")
+    assert main(a) == 0
     s2 = gpd.read_file(out2, layer="stands")
+    t = pd.read_csv(csv, sep=";", decimal=",", dtype={"stand_id": str}, encoding="utf-8-sig")
+    assert list(t["stand_id"]) == list(s2["stand_id"]) and "talhao" in t.columns
+    for f in ("volume_m3_ha", "volume_m3_ha_low", "volume_m3_ha_high", "volume_m3",
+              "basal_area_m2_ha", "n_plots"):
+        assert np.allclose(t[f], s2[f], rtol=1e-4), f
     assert (s2["volume_plots_weight"] == 0).all()
     assert np.allclose(s2["volume_m3_ha"], s2["volume_model_m3_ha"], atol=2e-3)
     assert np.allclose(s2["volume_model_m3_ha"], stands["volume_model_m3_ha"], atol=2e-3)
@@ -194,6 +208,11 @@ def test_bad_inputs_one_line_no_output(farm, tmp_path, capsys):
     a[2] = str(tmp_path / "three.gpkg")
     line = _bad(capsys, a, tmp_path, out)
     assert "at least 5" in line, line
+    # an existing stand table is not replaced without -overwrite, and nothing else is written
+    (tmp_path / "st.csv").write_text("keep\n")
+    a = _args(d, out, "-volume_equation", EQ, "-stand_csv", str(tmp_path / "st.csv"))
+    assert "st.csv: output exists; use -overwrite" in _bad(capsys, a, tmp_path, out)
+    assert (tmp_path / "st.csv").read_text() == "keep\n"
     # the tree approach without trees
     a = _args(d, out, "-approach", "trees")
     i = a.index("-trees_table")

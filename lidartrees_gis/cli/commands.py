@@ -11,7 +11,9 @@ from dataclasses import dataclass, field
 # This module imports nothing beyond the standard library at load time: the QGIS provider reads
 # the parameter table from it without loading numpy, GDAL or GEOS into the QGIS process.
 
-# kinds: input (point file / raster), output (file), outdir, float, int, str, choice, bool, crs, kv
+# kinds: input (point file / raster), output (file), outdir, float, int, str, choice, bool, crs, kv,
+# vector (a polygon or point layer), field (a field of the vector parameter named by `parent`),
+# table (a tabular file: CSV/TXT/XLSX)
 
 
 @dataclass(frozen=True)
@@ -28,6 +30,7 @@ class Param:
     advanced: bool = False
     required: bool = False
     unit: str = ""
+    parent: str = ""  # kind field: the vector parameter whose field it names
 
     @property
     def positional(self) -> bool:
@@ -45,6 +48,9 @@ class Command:
     action: str  # the function of :mod:`lidartrees_gis.cli.actions` that runs it
     help: str = ""
     outputs: tuple = field(default=())
+    #: files the command writes beside its outputs, named in its result under these keys:
+    #: (key, kind raster|file, label); QGIS declares them as the algorithm's outputs
+    files: tuple = field(default=())
 
     def run(self, **kw):
         """Run the command with parameter values ``kw`` (names as in :attr:`params`, plus
@@ -173,9 +179,9 @@ KEEP_OUTLIERS = Param("keep_outliers", "bool", "Keep isolated returns far above 
 PLOT_PARAMS = (
     Param("plots", "vector", "Field plots (parcelas): a polygon layer, or plot centres (points) "
           "with -plot_radius, PATH or PATH:LAYER", flag="-plots"),
-    Param("plot_id", "str", "The plots' id field (default: the first of plot_id, parcela, "
+    Param("plot_id", "field", "The plots' id field (default: the first of plot_id, parcela, "
           "id_parcela, plot, id, name present; else 1, 2, ...)", flag="-plot_id",
-          advanced=True),
+          advanced=True, parent="plots"),
     Param("plot_radius", "float", "Radius of circular plots given by their centres (11.28 m "
           "for 400 m²)", flag="-plot_radius", unit="m"),
 )
@@ -296,9 +302,9 @@ COMMANDS = {
                "stand_id and a stands layer the per-stand inventory (trees/ha, mean and dominant "
                "height, crown diameter, canopy cover, height classes; with -spacing each stand's "
                "own lattice and stocking)", flag="-stands"),
-         Param("stand_id", "str", "The stands' id field (default: the first of stand_id, "
+         Param("stand_id", "field", "The stands' id field (default: the first of stand_id, "
                "talhao, id_talhao, cod_talhao, codigo, id, name, nome present; else 1, 2, ...)",
-               flag="-stand_id", advanced=True),
+               flag="-stand_id", advanced=True, parent="stands"),
          Param("stand_csv", "output", "Also write the per-stand inventory as a table (.csv, or "
                ".xlsx), the stands' own attributes included",
                flag="-stand_csv", advanced=True),
@@ -446,8 +452,8 @@ COMMANDS = {
                default=20.0, unit="m"),
          *PLOT_PARAMS,
          Param("stands", "vector", "Stand (talhão) polygons, PATH or PATH:LAYER", flag="-stands"),
-         Param("stand_id", "str", "The stands' id field (default: stand_id, talhao, ... or "
-               "numbered)", flag="-stand_id", advanced=True),
+         Param("stand_id", "field", "The stands' id field (default: stand_id, talhao, ... or "
+               "numbered)", flag="-stand_id", advanced=True, parent="stands"),
          *METRIC_PARAMS,
          *CLASSES, *(p for p in TILES if p.name in ("tile_size", "workers", "scheduler")),
          *READ_GEO, CO, OVERWRITE), "metrics", outputs=("output",)),
@@ -461,12 +467,12 @@ COMMANDS = {
                "OUT_volume.tif (m³/ha), OUT_report.json and OUT_report.png beside it"),
          Param("stands", "vector", "Stand (talhão) polygons, PATH or PATH:LAYER",
                flag="-stands", required=True),
-         Param("trees_table", "str", "Field trees table (CSV/TXT, pt-BR or English): plot "
+         Param("trees_table", "table", "Field trees table (CSV/TXT, pt-BR or English): plot "
                "(parcela), tree (arvore), DAP cm (dap) or CAP cm (cap), HT m (ht, for all or "
-               "some trees), volume m³ (optional)", flag="-trees_table"),
+               "some trees), volume m³ (optional); .xlsx read too", flag="-trees_table"),
          *(p for p in PLOT_PARAMS if p.name != "plots"),
-         Param("stand_id", "str", "The stands' id field (default: stand_id, talhao, ... or "
-               "numbered)", flag="-stand_id", advanced=True),
+         Param("stand_id", "field", "The stands' id field (default: stand_id, talhao, ... or "
+               "numbered)", flag="-stand_id", advanced=True, parent="stands"),
          Param("volume_equation", "str", "Schumacher-Hall coefficients b0,b1,b2 of V = "
                "b0·DAP^b1·HT^b2 (DAP cm, HT m, V m³); default: fitted on the trees that "
                "carry a volume", flag="-volume_equation"),
@@ -481,9 +487,17 @@ COMMANDS = {
          Param("estimator", "choice", "A stand's figure: eblup = the model's, corrected by "
                "the stand's own plots as far as they can be trusted; model = the model's alone",
                flag="-estimator", choices=("eblup", "model"), default="eblup", advanced=True),
+         Param("stand_csv", "output", "Also write the per-stand figures as a table (.csv, or "
+               ".xlsx), the stands' own attributes included", flag="-stand_csv",
+               advanced=True),
+         Param("layer_options", "kv", "GeoPackage layer creation option KEY=VALUE; and for "
+               "the -stand_csv table " + TABLE_LCO, flag="-lco", advanced=True),
          *METRIC_PARAMS, *CLASSES,
          *(p for p in TILES if p.name in ("tile_size", "workers", "scheduler")),
-         *READ_GEO, CO, OVERWRITE), "volume", outputs=("output",)),
+         *READ_GEO, CO, OVERWRITE), "volume", outputs=("output", "stand_csv"),
+        files=(("raster", "raster", "Volume raster (m³/ha)"),
+               ("json", "file", "Model report (JSON)"),
+               ("png", "file", "Measured against predicted (PNG)"))),
     "demo": Command(
         "demo", "Demo", "Generate a synthetic eucalyptus stand with known trees and process it",
         (Param("outdir", "outdir", "Output folder (default lidartrees_demo)", default=None,

@@ -40,6 +40,26 @@ def _stand_fields(prefix, est, area_ha):
     return out
 
 
+def _with_attributes(sdf, attributes):
+    """The stands' own attributes (clone, age, the id field) after ``stand_id``, as the trees
+    command's stands layer has them; a name the layer uses for a figure gets ``_input``."""
+    import pandas as pd
+
+    if not attributes:
+        return sdf
+    att = pd.DataFrame(list(attributes))
+    taken = {c.lower() for c in sdf.columns} | {"fid", "geom", "geometry"}
+    names = {}
+    for c in att.columns:
+        n = str(c)
+        while n.lower() in taken:
+            n += "_input"
+        taken.add(n.lower())
+        names[c] = n
+    att = att.rename(columns=names)
+    return pd.concat([sdf[["stand_id"]], att, sdf.drop(columns="stand_id")], axis=1)
+
+
 def build(area, plots, stands, meas, pm, plot_stand, res_aba, res_trees, spec, cm, options,
           metric, r):
     """``(layers, report, volume grid or None)``."""
@@ -115,6 +135,7 @@ def build(area, plots, stands, meas, pm, plot_stand, res_aba, res_trees, spec, c
             **{k[5:]: v for k, v in ts.items() if k.startswith("plot_")}}
         tops = res_trees["tops"]
         layers["tree_tops"] = tops
+    sdf = _with_attributes(sdf, stands.attributes)
     layers = {"plots": gpd.GeoDataFrame(pdf, geometry=list(plots.geoms), crs=area.crs),
               "stands": gpd.GeoDataFrame(sdf, geometry=list(stands.geoms), crs=area.crs),
               **layers}
@@ -201,9 +222,11 @@ def _draw(report, y, fit, loo):
     return draw
 
 
-def write(output, side, layers, report, spec, vol_grid, res_aba, out, input, area):
+def write(output, side, layers, report, spec, vol_grid, res_aba, out, input, area,
+          stand_csv=None) -> dict:
     """Every output, each atomically; the side files are removed again when a later one
-    fails (no half set of outputs)."""
+    fails (no half set of outputs). Returns the side files written, by their key in
+    ``side`` (and ``stand_csv``)."""
     import contextlib
     import os
 
@@ -213,22 +236,29 @@ def write(output, side, layers, report, spec, vol_grid, res_aba, out, input, are
     from ..io.vector import describe_columns, write_gpkg
     from ..report.plots import plot_png
 
-    done = []
+    done = {}
     try:
         if vol_grid is not None:
             write_geotiff(side["raster"], vol_grid, spec, overwrite=out.overwrite,
                           creation_options=out.creation_options, description="volume (m³/ha)",
                           tags=raster_tags("volume", area, {"res": spec.res}, input))
-            done.append(side["raster"])
+            done["raster"] = side["raster"]
         with atomic_output(side["json"], out.overwrite, param="report") as tmp:
             tmp.write_text(json.dumps(report, indent=1, default=float), encoding="utf-8")
-        done.append(side["json"])
+        done["json"] = side["json"]
         if "volume" in res_aba:
             model = res_aba["volume"][0]
             y = layers["plots"]["volume_m3_ha"].to_numpy(float)
             plot_png(side["png"], _draw(report, y, model.stats["fitted"], model.stats["loo"]),
                      overwrite=out.overwrite)
-            done.append(side["png"])
+            done["png"] = side["png"]
+        if stand_csv is not None:
+            from ..io.tables import write_table
+
+            rows = layers["stands"].drop(columns="geometry").to_dict("records")
+            with atomic_output(stand_csv, out.overwrite, param="-stand_csv") as tmp:
+                write_table(tmp, rows, text=("stand_id",), options=out.table, name="stands")
+            done["stand_csv"] = stand_csv
         write_gpkg(output, layers, overwrite=out.overwrite, layer_options=out.layer_options,
                    metadata={"volume_report": report},
                    styles={"stands": "volume_stands.qml", "tree_tops": "tree_tops.qml",
@@ -236,7 +266,8 @@ def write(output, side, layers, report, spec, vol_grid, res_aba, out, input, are
         for layer in ("plots", "stands"):
             describe_columns(output, layer, FIELD_DOCS)
     except BaseException:
-        for p in done:
+        for p in done.values():
             with contextlib.suppress(OSError):
                 os.unlink(p)
         raise
+    return done

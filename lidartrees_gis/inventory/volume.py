@@ -195,7 +195,8 @@ def _aba(pm, figures, cm, cell_stand, n_stands, plot_stand, options) -> dict:
 
 
 def volume_run(input, plots, output, *, stands, trees_table=None, plot_id=None,
-               plot_radius=None, stand_id=None, options: VolumeOptions | None = None,
+               plot_radius=None, stand_id=None, stand_csv=None,
+               options: VolumeOptions | None = None,
                metric: MetricOptions | None = None, surface=None,
                read: ReadOptions | None = None, tiling: TilingOptions | None = None,
                out: OutputOptions | None = None, progress=None) -> dict:
@@ -222,8 +223,11 @@ def volume_run(input, plots, output, *, stands, trees_table=None, plot_id=None,
 
         if Path(output).suffix.lower() != ".gpkg":
             raise InputError(f"OUTPUT: {output}: expected a .gpkg file name")
-        check_outputs([(output, "OUTPUT"), *((p, k) for k, p in side.items())],
+        check_outputs([(output, "OUTPUT"), *((p, k) for k, p in side.items()),
+                       (stand_csv, "-stand_csv")],
                       (input, plots, stands, trees_table), out.overwrite)
+    elif stand_csv is not None:
+        raise InputError("-stand_csv: needs the output GeoPackage")
     area = open_points(input, read)
     pl = load_plots(plots, area.crs, plot_id=plot_id, plot_radius=plot_radius)
     check_inside(pl, area.extent, area.label())
@@ -276,8 +280,8 @@ def volume_run(input, plots, output, *, stands, trees_table=None, plot_id=None,
               "stands": len(st), "cell_res": spec.res, "report": report, "layers": layers,
               "volume_grid": (spec, vol_grid)}
     if output is not None:
-        outs.write(output, side, layers, report, spec, vol_grid, res_aba, out, input, area)
-        result.update({k: str(v) for k, v in side.items()
-                       if k != "raster" or vol_grid is not None})
+        written = outs.write(output, side, layers, report, spec, vol_grid, res_aba, out, input,
+                             area, stand_csv)
+        result.update({k: str(v) for k, v in written.items()})
     prog.update(1.0, "done")
     return result

@@ -73,12 +73,20 @@ def match_column(name, table: dict):
 def read_text_table(path):
     """A CSV or text table as a pandas DataFrame, in whichever dialect it comes: comma,
     semicolon or tab separated, decimal point or comma (pt-BR spreadsheets: ``;`` and ``,``),
-    UTF-8 (with or without BOM), Windows-1252 or Latin-1. Raises ValueError when it cannot be
-    read."""
+    UTF-8 (with or without BOM), Windows-1252 or Latin-1; or the first sheet of an ``.xlsx``
+    workbook. Raises ValueError when it cannot be read."""
     import pandas as pd
 
     p = Path(path)
     raw = p.read_bytes()
+    if p.suffix.lower() == ".xlsx" or raw[:4] == b"PK\x03\x04":
+        import io
+        import zipfile
+
+        try:  # the first sheet; cells typed as numbers stay numbers, text stays text
+            return pd.read_excel(io.BytesIO(raw), sheet_name=0, engine="openpyxl")
+        except (zipfile.BadZipFile, KeyError, ValueError) as exc:
+            raise ValueError(f"not a readable .xlsx workbook ({exc})") from None
     for enc in ("utf-8-sig", "cp1252", "latin-1"):  # latin-1 decodes any byte: the last
         try:
             text = raw.decode(enc)

@@ -900,8 +900,8 @@
       <translation>Parcelas de campo: uma camada de polígonos, ou os centros das parcelas (pontos) com -plot_radius, CAMINHO ou CAMINHO:CAMADA</translation>
     </message>
     <message>
-      <source>Plot id</source>
-      <translation>Id da parcela</translation>
+      <source>Plot id field</source>
+      <translation>Campo de id da parcela</translation>
     </message>
     <message>
       <source>The plots' id field (default: the first of plot_id, parcela, id_parcela, plot, id, name present; else 1, 2, ...)</source>
@@ -952,12 +952,12 @@
       <translation>GeoPackage de saída (camadas plots, stands, tree_tops); OUT_volume.tif (m³/ha), OUT_report.json e OUT_report.png ao lado</translation>
     </message>
     <message>
-      <source>Trees table</source>
-      <translation>Tabela de árvores</translation>
+      <source>Field trees table</source>
+      <translation>Tabela das árvores de campo</translation>
     </message>
     <message>
-      <source>Field trees table (CSV/TXT, pt-BR or English): plot (parcela), tree (arvore), DAP cm (dap) or CAP cm (cap), HT m (ht, for all or some trees), volume m³ (optional)</source>
-      <translation>Tabela das árvores de campo (CSV/TXT, pt-BR ou inglês): parcela, arvore, DAP cm (dap) ou CAP cm (cap), HT m (ht, de todas ou de algumas árvores), volume m³ (opcional)</translation>
+      <source>Field trees table (CSV/TXT, pt-BR or English): plot (parcela), tree (arvore), DAP cm (dap) or CAP cm (cap), HT m (ht, for all or some trees), volume m³ (optional); .xlsx read too</source>
+      <translation>Tabela das árvores de campo (CSV/TXT, pt-BR ou inglês): parcela, arvore, DAP cm (dap) ou CAP cm (cap), HT m (ht, de todas ou de algumas árvores), volume m³ (opcional); lê também .xlsx</translation>
     </message>
     <message>
       <source>Volume equation</source>
@@ -990,6 +990,26 @@
     <message>
       <source>A stand's figure: eblup = the model's, corrected by the stand's own plots as far as they can be trusted; model = the model's alone</source>
       <translation>O valor do talhão: eblup = o do modelo, corrigido pelas parcelas do próprio talhão na medida em que merecem confiança; model = só o do modelo</translation>
+    </message>
+    <message>
+      <source>Also write the per-stand figures as a table (.csv, or .xlsx), the stands' own attributes included</source>
+      <translation>Gravar também os valores por talhão como tabela (.csv ou .xlsx), com os atributos próprios dos talhões</translation>
+    </message>
+    <message>
+      <source>GeoPackage layer creation option KEY=VALUE; and for the -stand_csv table CSV table option KEY=VALUE: SEPARATOR=COMMA|SEMICOLON|TAB|SPACE, DECIMAL=POINT|COMMA, WRITE_BOM=YES|NO (default: the locale's; pt_BR: semicolon, decimal comma, BOM); a table named .xlsx is a workbook</source>
+      <translation>Opção de criação de camada do GeoPackage CHAVE=VALOR; e, para a tabela -stand_csv, opção de tabela CSV CHAVE=VALOR: SEPARATOR=COMMA|SEMICOLON|TAB|SPACE, DECIMAL=POINT|COMMA, WRITE_BOM=YES|NO (padrão: o do idioma do sistema; pt_BR: ponto e vírgula, vírgula decimal, BOM); uma tabela com nome .xlsx é uma planilha</translation>
+    </message>
+    <message>
+      <source>Volume raster (m³/ha)</source>
+      <translation>Raster de volume (m³/ha)</translation>
+    </message>
+    <message>
+      <source>Model report (JSON)</source>
+      <translation>Relatório do modelo (JSON)</translation>
+    </message>
+    <message>
+      <source>Measured against predicted (PNG)</source>
+      <translation>Medido contra estimado (PNG)</translation>
     </message>
     <message>
       <source>Demo</source>
@@ -1046,6 +1066,18 @@
     <message>
       <source>Area-based approach (Næsset, E. (2002), Remote Sensing of Environment 80, 88-99); Schumacher, F. X. &amp; Hall, F. S. (1933) volume equation; eucalyptus plantations: Silva, C. A. et al. (2016), Forestry. Model form, intervals and limits: docs/VOLUME.md.</source>
       <translation>Abordagem de área (Næsset, E. (2002), Remote Sensing of Environment 80, 88-99); equação de volume de Schumacher, F. X. &amp; Hall, F. S. (1933); plantios de eucalipto: Silva, C. A. et al. (2016), Forestry. Forma do modelo, intervalos e limites: docs/VOLUME.md.</translation>
+    </message>
+    <message>
+      <source>Plot id</source>
+      <translation type="vanished">Id da parcela</translation>
+    </message>
+    <message>
+      <source>Trees table</source>
+      <translation type="vanished">Tabela de árvores</translation>
+    </message>
+    <message>
+      <source>Field trees table (CSV/TXT, pt-BR or English): plot (parcela), tree (arvore), DAP cm (dap) or CAP cm (cap), HT m (ht, for all or some trees), volume m³ (optional)</source>
+      <translation type="vanished">Tabela das árvores de campo (CSV/TXT, pt-BR ou inglês): parcela, arvore, DAP cm (dap) ou CAP cm (cap), HT m (ht, de todas ou de algumas árvores), volume m³ (opcional)</translation>
     </message>
     <message>
       <source>LiDAR Trees: the 'lidartrees' command was not found. Install the lidartrees_gis package in its own environment (python3 -m venv ~/.venvs/lidartrees &amp;&amp; ~/.venvs/lidartrees/bin/pip install /path/to/lidartrees_gis, the package's folder or wheel) and, if it is not on the PATH, set the environment variable LIDARTREES_EXE or the QGIS setting '{setting}' to its path.</source>

@@ -45,12 +45,20 @@ def test_volume_layers_and_bad_input(qgis_app, tmp_path):
               "OUTPUT": str(out), "STANDS": str(tmp_path / "stands.gpkg"),
               "TREES_TABLE": str(tmp_path / "arvores.csv"), "PLOT_RADIUS": 11.28,
               "VOLUME_EQUATION": EQ, "RESAMPLES": 100}
-    run("volume", params)
+    # the id fields as the dialog's field pickers give them, a stand table beside
+    r = run("volume", {**params, "PLOT_ID": "parcela", "STAND_ID": "talhao",
+                       "STAND_CSV": str(tmp_path / "talhoes.csv")})
     st = gpd.read_file(out, layer="stands")
     assert len(st) == 6 and st["n_plots"].sum() == 9
+    assert list(st["stand_id"]) == [f"T{k}" for k in range(1, 7)]
     err = st["volume_m3_ha"].to_numpy() / truth["stands"]["volume_m3_ha"] - 1
     assert np.abs(err).max() < 0.15
-    assert (tmp_path / "v_volume.tif").exists() and (tmp_path / "v_report.json").exists()
+    # the files beside the GeoPackage are the algorithm's declared outputs
+    assert r["RASTER"] == str(tmp_path / "v_volume.tif") and Path(r["RASTER"]).exists()
+    assert r["JSON"] == str(tmp_path / "v_report.json") and Path(r["JSON"]).exists()
+    assert r["PNG"] == str(tmp_path / "v_report.png") and Path(r["PNG"]).exists()
+    assert r["STAND_CSV"] == str(tmp_path / "talhoes.csv")
+    assert len((tmp_path / "talhoes.csv").read_text(encoding="utf-8-sig").splitlines()) == 7
     # run and loaded as from the toolbox, both approaches: the stands, the plots (styled:
     # outlined and labelled) and the trees join the project
     import processing
@@ -72,3 +80,25 @@ def test_volume_layers_and_bad_input(qgis_app, tmp_path):
         run("volume", {**params, "PLOTS": str(tmp_path / "three.gpkg"), "OUTPUT": str(bad)})
     assert "\n" not in str(e.value).strip()
     assert not bad.exists() and not list(tmp_path.glob("bad_*"))
+
+
+def test_volume_dialog_pickers_and_help(qgis_app):
+    """The id fields are pickers over their layer's fields, the trees table a file picker
+    that offers workbooks; the help speaks of the dialog's labels, not the command's flags."""
+    from qgis.core import QgsApplication, QgsProcessingOutputFile, QgsProcessingOutputRasterLayer
+
+    alg = QgsApplication.processingRegistry().algorithmById("lidartrees:volume")
+    d = {p.name(): p for p in alg.parameterDefinitions()}
+    assert d["PLOT_ID"].type() == "field" and d["PLOT_ID"].parentLayerParameterName() == "PLOTS"
+    assert d["STAND_ID"].type() == "field" and \
+        d["STAND_ID"].parentLayerParameterName() == "STANDS"
+    assert d["TREES_TABLE"].type() == "file" and "*.xlsx" in d["TREES_TABLE"].fileFilter()
+    trees = QgsApplication.processingRegistry().algorithmById("lidartrees:trees")
+    assert {p.name(): p for p in trees.parameterDefinitions()}["STAND_ID"] \
+        .parentLayerParameterName() == "STANDS"
+    outs = {o.name(): o for o in alg.outputDefinitions()}
+    assert isinstance(outs["RASTER"], QgsProcessingOutputRasterLayer)
+    assert isinstance(outs["JSON"], QgsProcessingOutputFile) and "PNG" in outs
+    help_ = alg.shortHelpString()
+    assert "-trees_table" not in help_ and "-plot_radius" not in help_
+    assert "<b>Stand id field</b> (STAND_ID)" in help_
