@@ -14,7 +14,8 @@ command's estimators run on that draw's plots (``models.select_model`` / ``aba_s
 area-based approach, ``fit_dap_height`` / ``ratio_stands`` for the tree approach). Per
 configuration: stand volume error % against the truth (mean, mean |error|, max |error|, share of
 stands within ±5 %), the 95 % intervals' coverage of the true stand volume over stands x draws,
-their mean half-width %, and the plots' leave-one-out relative RMSE.
+their mean half-width %, the plots' leave-one-out relative RMSE, and the same for the farm's
+total m³ (``models.total_interval``: error %, coverage over draws, half-width %).
 
 Usage: python benchmarks/bench_volume.py [--configs 0 1 ...] [--densities 8 4] [--draws 20]
 Results are merged into benchmarks/results/volume.json (one key per configuration and density),
@@ -80,6 +81,15 @@ def _summary(est, low, high, true):
             "half_width_pct_mean": round(float(np.mean(half)), 2)}
 
 
+def _total_summary(rows, true):
+    t, lo, hi = np.asarray(rows, float).T
+    err = 100 * (t / true - 1)
+    return {"true_m3": round(true, 1), "error_pct_mean": round(float(np.mean(err)), 2),
+            "error_pct_max_abs": round(float(np.max(np.abs(err))), 2),
+            "coverage_95": round(float(np.mean((lo <= true) & (true <= hi))), 3),
+            "half_width_pct_mean": round(float(np.mean(100 * (hi - lo) / 2 / true)), 2)}
+
+
 def run_config(name, p, density, draws, resamples):
     import pyproj
 
@@ -88,7 +98,7 @@ def run_config(name, p, density, draws, resamples):
     from lidartrees_gis.catalog.catalog import Catalog, TilingOptions
     from lidartrees_gis.inventory.field import Equation, complete_trees, plot_figures
     from lidartrees_gis.inventory.models import (aba_stands, fit_dap_height, ratio_stands,
-                                                 select_model)
+                                                 select_model, total_interval)
     from lidartrees_gis.inventory.plots import Zones
     from lidartrees_gis.inventory.tiles import area_metrics
     from lidartrees_gis.inventory.volume import _cells
@@ -127,6 +137,7 @@ def run_config(name, p, density, draws, resamples):
     area_m2 = np.pi * RADIUS ** 2
     aba, trees, loo = {"est": [], "low": [], "high": []}, {"est": [], "low": [], "high": []}, []
     loo_trees, chosen = [], {}
+    totals = {"aba": [], "trees": []}  # (total, low, high) of each draw
     for k, ((x, y, _), z, pm) in enumerate(zip(plot_sets, zones, r["zones"])):
         rows = plot_trees(truth, x, y, RADIUS, ht_share=0.4, seed=k)
         ft = {"plot": rows["parcela"].astype(int).astype(str).astype(object),
@@ -145,6 +156,8 @@ def run_config(name, p, density, draws, resamples):
                        resamples=resamples, seed=k)
         for a in ("est", "low", "high"):
             aba[a].append(e["estimate" if a == "est" else a])
+        t = total_interval(e, st.area_ha)
+        totals["aba"].append((t["total"], t["low"], t["high"]))
         loo.append(model.stats["loo_rmse_pct"])
         # tree approach
         measured = ~ft["ht_estimated"]
@@ -157,8 +170,11 @@ def run_config(name, p, density, draws, resamples):
                           seed=k)
         for a in ("est", "low", "high"):
             trees[a].append(rt["estimate" if a == "est" else a])
+        t = total_interval(rt, st.area_ha)
+        totals["trees"].append((t["total"], t["low"], t["high"]))
         loo_trees.append(rt["plot_loo_rmse_pct"])
     tv = np.tile(true_v, (draws, 1))
+    true_total = float(np.sum(true_v * st.area_ha))
     out = {"config": name, "density": density, "points": int(len(pts.x)),
            "stands": len(st), "area_ha": round(float(np.sum(st.area_ha)), 2),
            "plots_per_draw": len(plot_sets[0][0]), "draws": draws,
@@ -167,10 +183,12 @@ def run_config(name, p, density, draws, resamples):
            "aba": {**_summary(np.array(aba["est"]), np.array(aba["low"]),
                               np.array(aba["high"]), tv),
                    "loo_rmse_pct_mean": round(float(np.mean(loo)), 2),
-                   "loo_rmse_pct_max": round(float(np.max(loo)), 2), "models_chosen": chosen},
+                   "loo_rmse_pct_max": round(float(np.max(loo)), 2), "models_chosen": chosen,
+                   "total": _total_summary(totals["aba"], true_total)},
            "trees": {**_summary(np.array(trees["est"]), np.array(trees["low"]),
                                 np.array(trees["high"]), tv),
                      "loo_rmse_pct_mean": round(float(np.mean(loo_trees)), 2),
+                     "total": _total_summary(totals["trees"], true_total),
                      "detected_trees": int(len(tops)),
                      "true_trees": int(truth["trees"]["x"].size)},
            "seconds": {"metrics": round(t_metrics, 1), "trees": round(t_trees, 1),
@@ -209,7 +227,11 @@ def main(argv=None):
             "trees_within_5pct": round(float(np.mean([r["trees"]["within_5pct"] for r in rs])),
                                        3),
             "trees_coverage_95": round(float(np.mean([r["trees"]["coverage_95"] for r in rs])),
-                                       3)}
+                                       3),
+            **{f"{a}_total_{k}": round(float(np.mean([r[a]["total"][k] for r in rs
+                                                       if "total" in r[a]])), 3)
+               for a in ("aba", "trees") for k in ("coverage_95", "half_width_pct_mean")
+               if any("total" in r[a] for r in rs)}}
         path.write_text(json.dumps(res, indent=1))
 
 

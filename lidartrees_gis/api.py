@@ -191,7 +191,8 @@ def volume(input, plots, output=None, *, stands, trees_table=None, plot_id=None,
         Also write the stands' figures as a table (``.csv`` in the locale's dialect, or
         ``.xlsx``); needs ``output``.
     volume_equation : str or (b0, b1, b2), optional
-        Schumacher-Hall ``V = b0·DAP^b1·HT^b2``.
+        Schumacher-Hall ``V = b0·DAP^b1·HT^b2``, or ``"ff:F"``: a form factor F
+        (``V = F·g·HT``).
     approach : {"aba", "trees", "both"}
     estimator : {"eblup", "model"}
         A stand's figure: the model's corrected by the stand's own plots (eblup), or the

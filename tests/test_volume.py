@@ -57,7 +57,9 @@ def test_cli_both_approaches(farm, tmp_path, capsys):
     capsys.readouterr()
     assert main(_args(d, out, "-volume_equation", EQ, "-approach", "both",
                       "-resamples", "200")) == 0
-    printed = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("stand T")]
+    text = capsys.readouterr().out.splitlines()
+    printed = [ln for ln in text if ln.startswith("stand T")]
+    total = [ln for ln in text if ln.startswith("total: ")]
     plots = gpd.read_file(out, layer="plots")
     stands = gpd.read_file(out, layer="stands")
     # one line a stand: its volume and interval as in the layer, its plots
@@ -125,6 +127,18 @@ def test_cli_both_approaches(farm, tmp_path, capsys):
         v = ds.read(1, masked=True)
         assert 150 < float(v.mean()) < 700
     rep = json.loads((tmp_path / "vol_report.json").read_text())
+    # the farm's total with its interval: the stands' m³ summed; the interval at least that of
+    # independent stands and at most that of stands erring all alike
+    for pre, part in (("volume", rep), ("volume_trees", rep["tree_approach"])):
+        t, lo, hi = part["total_m3"], part["total_m3_low"], part["total_m3_high"]
+        assert t == pytest.approx(stands[f"{pre}_m3"].sum(), abs=0.1)
+        half = (stands[f"{pre}_m3_high"] - stands[f"{pre}_m3_low"]).to_numpy() / 2
+        assert 0.9 * np.sqrt(np.sum(half ** 2)) < (hi - lo) / 2 < 1.01 * half.sum(), pre
+    assert total == [f"total: area-based {rep['total_m3']:.0f} m³ ±"
+                     f"{100 * (rep['total_m3_high'] - rep['total_m3_low']) / 2 / rep['total_m3']:.1f}"
+                     f" % ({rep['total_m3_low']:.0f}-{rep['total_m3_high']:.0f}); tree method "
+                     f"{rep['tree_approach']['total_m3']:.0f} m³ ±"
+                     + total[0].split("tree method ")[1].split("±")[1]]
     m = rep["volume_model"]
     assert m["plots"] == 9 and 1 <= len(m["predictors"]) <= 2 and m["loo_rmse_pct"] < 15
     assert rep["field"]["heights_estimated"] > 0 and rep["field"]["hypsometric"]["trees"] > 0
@@ -240,6 +254,13 @@ def test_field_table_forms(tmp_path):
     assert f["volume_m3_ha"][0] == pytest.approx(v1)
     with pytest.raises(InputError, match="b0,b1,b2"):
         Equation.parse("1,2")
+    # a form factor (fator de forma) as companies without an equation use: V = f·g·HT
+    ff = Equation.parse("ff:0,45")
+    assert ff(20.0, 25.0) == pytest.approx(0.45 * np.pi * 0.2 ** 2 / 4 * 25.0)
+    assert ff.source == "form factor 0.45"
+    for bad in ("ff:3", "ff:x", "ff:"):
+        with pytest.raises(InputError, match="form factor"):
+            Equation.parse(bad)
 
 
 def test_warnings_extra_table_plots_and_overlaps(farm, tmp_path):

@@ -263,7 +263,9 @@ def volume(input, plots, output, **kw):
             out[key] = f"{m['equation']} (R² {m['r2']:.3f}, RMSE {m['rmse_pct']:.1f} %, LOO " \
                        f"RMSE {m['loo_rmse_pct']:.1f} %)"
     if "total_m3" in rep:
-        out["total_m3"] = round(rep["total_m3"], 1)
+        from ..inventory.outputs import total_line
+
+        out["total"] = total_line(rep)
     from ..inventory.outputs import stand_lines
 
     out.update(stand_lines(r["layers"]["stands"], opts.approach))

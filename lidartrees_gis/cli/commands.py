@@ -474,8 +474,9 @@ COMMANDS = {
          Param("stand_id", "field", "The stands' id field (default: stand_id, talhao, ... or "
                "numbered)", flag="-stand_id", advanced=True, parent="stands"),
          Param("volume_equation", "str", "Schumacher-Hall coefficients b0,b1,b2 of V = "
-               "b0·DAP^b1·HT^b2 (DAP cm, HT m, V m³); default: fitted on the trees that "
-               "carry a volume", flag="-volume_equation"),
+               "b0·DAP^b1·HT^b2 (DAP cm, HT m, V m³), or ff:F for a form factor F (V = "
+               "F·g·HT, g = π·DAP²/40000); default: fitted on the trees that carry a volume",
+               flag="-volume_equation"),
          Param("approach", "choice", "aba = area-based model of the plots' height metrics; "
                "trees = detected trees' volume from their heights, scaled by the plots; both",
                flag="-approach", choices=("aba", "trees", "both"), default="aba"),

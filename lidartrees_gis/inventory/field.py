@@ -38,7 +38,9 @@ DAP_MM = 100.0
 
 @dataclass(frozen=True)
 class Equation:
-    """Schumacher-Hall ``V = b0 DAP^b1 HT^b2`` (DAP cm, HT m, V m³)."""
+    """Schumacher-Hall ``V = b0 DAP^b1 HT^b2`` (DAP cm, HT m, V m³). A form factor ``f``
+    (``V = f · g · HT``, ``g = π DAP² / 40000`` m²) is the case ``b0 = f π / 40000``,
+    ``b1 = 2``, ``b2 = 1`` (:meth:`parse` takes it as ``ff:F``)."""
 
     b0: float
     b1: float
@@ -47,15 +49,24 @@ class Equation:
 
     @classmethod
     def parse(cls, text) -> "Equation":
-        try:
-            t = str(text).strip()  # pt-BR: "0,000049;1,85;1,05"
+        t = str(text).strip()
+        if t.lower().startswith(("ff:", "ff=")):  # a form factor (fator de forma), "ff:0,45"
+            try:
+                f = float(t[3:].strip().replace(",", "."))
+            except ValueError:
+                f = np.nan
+            if not 0.1 <= f <= 1.5:
+                raise InputError(f"-volume_equation: expected ff:F with a form factor F between "
+                                 f"0.1 and 1.5 (V = F·g·HT), got {text!r}")
+            return cls(f * np.pi / 40000.0, 2.0, 1.0, source=f"form factor {f:g}")
+        try:  # pt-BR: "0,000049;1,85;1,05"
             parts = [v.replace(",", ".") for v in t.split(";")] if ";" in t else t.split(",")
             vals = [float(v) for v in parts]
             if len(vals) != 3 or not vals[0] > 0:
                 raise ValueError
         except ValueError:
             raise InputError(f"-volume_equation: expected b0,b1,b2 (V = b0·DAP^b1·HT^b2, b0 > "
-                             f"0), got {text!r}") from None
+                             f"0) or ff:F (a form factor), got {text!r}") from None
         return cls(*vals)
 
     def __call__(self, dap, ht):

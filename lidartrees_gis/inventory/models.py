@@ -398,14 +398,34 @@ def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_
                 fp = np.exp(fp + s2 / 2) if m.form == "loglog" else fp
             rep = rep + gw * plot_means(y - fp, plot_stand, n_stands)[0]
         reps.append(rep)
-    v_boot = boot_variance(reps, n_stands) * n / max(n - p - 1, 1)
+    factor = n / max(n - p - 1, 1)
+    v_boot = boot_variance(reps, n_stands) * factor
     s2_cells = float(np.mean(resid ** 2))
     with np.errstate(invalid="ignore", divide="ignore"):
-        se = np.sqrt(v_boot + fx["mse"] + s2_cells / np.maximum(cells, 1))
+        indep = fx["mse"] + s2_cells / np.maximum(cells, 1)
+    se = np.sqrt(v_boot + indep)
     t = t975(n - p - 1)
     return {"estimate": est, "low": np.maximum(est - t * se, 0.0), "high": est + t * se,
             "se": se, "cells": cells, "sigma2_stand": s2_b, "resamples": len(reps),
-            "synthetic": synth, "stand_effect": fx["effect"], "plots_weight": gw}
+            "synthetic": synth, "stand_effect": fx["effect"], "plots_weight": gw,
+            "joint": {"reps": reps, "factor": factor, "indep_var": indep, "t": t}}
+
+
+def total_interval(est: dict, area_ha) -> dict:
+    """The stands' total (m³, the stands with a figure) and its 95 % interval, from an
+    :func:`aba_stands` or :func:`ratio_stands` result: the spread of the bootstrap's totals
+    (one model refit moves every stand together, so the stands' errors do not cancel) plus
+    each stand's own departure and cell variance, independent between stands. Returns
+    ``total``, ``low``, ``high``, ``se``."""
+    a, e = np.asarray(area_ha, float), np.asarray(est["estimate"], float)
+    ok = np.isfinite(e)
+    total = float(np.sum(a[ok] * e[ok]))
+    j = est["joint"]
+    tb = np.asarray(j["reps"], float).reshape(-1, e.size)[:, ok] @ a[ok]
+    v_boot = float(boot_variance(tb[np.isfinite(tb)][:, None], 1)[0]) * j["factor"]
+    se = float(np.sqrt(v_boot + np.sum(a[ok] ** 2 * np.asarray(j["indep_var"], float)[ok])))
+    return {"total": total, "low": max(total - j["t"] * se, 0.0), "high": total + j["t"] * se,
+            "se": se}
 
 
 def fit_dap_height(dap, ht) -> tuple:
@@ -459,4 +479,6 @@ def ratio_stands(field_v, lidar_v, stand_lidar_v, plot_stand, *, plot_noise=None
     return {"estimate": est, "low": np.maximum(est - t * se, 0), "high": est + t * se, "se": se,
             "ratio": float(R), "loo": loo, "sigma2_stand": s2_b, "synthetic": synth,
             "stand_effect": fx["effect"], "plots_weight": gw,
+            "joint": {"reps": reps, "factor": n / max(n - 1, 1), "indep_var": fx["mse"],
+                      "t": t},
             **{f"plot_{k}": v for k, v in fit_stats(f, R * d, loo, 1).items()}}

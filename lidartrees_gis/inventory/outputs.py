@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 
-from .models import CANDIDATES
+from .models import CANDIDATES, total_interval
 
 FIELD_DOCS = {
     "volume_m3_ha": "wood volume (m³/ha): measured (plots) or estimated (stands)",
@@ -139,10 +139,34 @@ def build(area, plots, stands, meas, pm, plot_stand, res_aba, res_trees, spec, c
     layers = {"plots": gpd.GeoDataFrame(pdf, geometry=list(plots.geoms), crs=area.crs),
               "stands": gpd.GeoDataFrame(sdf, geometry=list(stands.geoms), crs=area.crs),
               **layers}
-    main = "volume_m3" if "volume_m3" in sdf else None
-    if main:
-        report["total_m3"] = float(np.nansum(sdf["volume_m3"]))
+    # the stands' total with its interval: the area-based figure's, else the trees'
+    for part, est in ((report, res_aba.get("volume", (None, None, None))[2]),
+                      (report.get("tree_approach"), None if res_trees is None
+                       else res_trees["stands"])):
+        if part is not None and est is not None:
+            tot = total_interval(est, stands.area_ha)
+            part.update({"total_m3": tot["total"], "total_m3_low": tot["low"],
+                         "total_m3_high": tot["high"]})
+            if "total_m3" not in report:
+                report.update({k: part[k] for k in ("total_m3", "total_m3_low",
+                                                    "total_m3_high")})
     return layers, report, vol_grid
+
+
+def total_line(report) -> str:
+    """The stands' total on one line: ``5321 m³ ±6.1 % (4996-5646)`` (the area-based figure's;
+    with both approaches the tree method's after it)."""
+    def one(r):
+        t, lo, hi = r["total_m3"], r.get("total_m3_low"), r.get("total_m3_high")
+        if lo is None or not (np.isfinite(lo) and np.isfinite(hi)) or t <= 0:
+            return f"{t:.0f} m³ (no interval)"
+        return f"{t:.0f} m³ ±{100 * (hi - lo) / 2 / t:.1f} % ({lo:.0f}-{hi:.0f})"
+
+    text = one(report)
+    tr = report.get("tree_approach") or {}
+    if "volume_model" in report and "total_m3" in tr:
+        text = f"area-based {text}; tree method {one(tr)}"
+    return text
 
 
 def stand_lines(stands, approach: str = "aba") -> dict:

@@ -964,8 +964,8 @@
       <translation>Equação de volume</translation>
     </message>
     <message>
-      <source>Schumacher-Hall coefficients b0,b1,b2 of V = b0·DAP^b1·HT^b2 (DAP cm, HT m, V m³); default: fitted on the trees that carry a volume</source>
-      <translation>Coeficientes b0,b1,b2 de Schumacher-Hall de V = b0·DAP^b1·HT^b2 (DAP cm, HT m, V m³); padrão: ajustados nas árvores que trazem volume</translation>
+      <source>Schumacher-Hall coefficients b0,b1,b2 of V = b0·DAP^b1·HT^b2 (DAP cm, HT m, V m³), or ff:F for a form factor F (V = F·g·HT, g = π·DAP²/40000); default: fitted on the trees that carry a volume</source>
+      <translation>Coeficientes b0,b1,b2 de Schumacher-Hall de V = b0·DAP^b1·HT^b2 (DAP cm, HT m, V m³), ou ff:F para um fator de forma F (V = F·g·HT, g = π·DAP²/40000); padrão: ajustados nas árvores que trazem volume</translation>
     </message>
     <message>
       <source>Approach</source>
@@ -1066,6 +1066,10 @@
     <message>
       <source>Area-based approach (Næsset, E. (2002), Remote Sensing of Environment 80, 88-99); Schumacher, F. X. &amp; Hall, F. S. (1933) volume equation; eucalyptus plantations: Silva, C. A. et al. (2016), Forestry. Model form, intervals and limits: docs/VOLUME.md.</source>
       <translation>Abordagem de área (Næsset, E. (2002), Remote Sensing of Environment 80, 88-99); equação de volume de Schumacher, F. X. &amp; Hall, F. S. (1933); plantios de eucalipto: Silva, C. A. et al. (2016), Forestry. Forma do modelo, intervalos e limites: docs/VOLUME.md.</translation>
+    </message>
+    <message>
+      <source>Schumacher-Hall coefficients b0,b1,b2 of V = b0·DAP^b1·HT^b2 (DAP cm, HT m, V m³); default: fitted on the trees that carry a volume</source>
+      <translation type="vanished">Coeficientes b0,b1,b2 de Schumacher-Hall de V = b0·DAP^b1·HT^b2 (DAP cm, HT m, V m³); padrão: ajustados nas árvores que trazem volume</translation>
     </message>
     <message>
       <source>Plot id</source>
