@@ -443,9 +443,12 @@ def detect_planting(x, y, *, min_trees: int = PLANTING_MIN_TREES,
     the positions concentrate most; :func:`fit_planting_grid` then fits the lattice. It is
     accepted when at least ``min_trees`` tops give a fit of at least ``min_fit`` and its
     spacings span :data:`MIN_PERIOD_CELLS` of the CHM's cells ``cell`` (m; 0: any).
-    ``spectral``: where the neighbours' directions mislead, look at the positions' spectrum
-    (:func:`~lidartrees_gis.plantation.spectrum._spectral_guess`, about 0.25 s on 5,000 tops);
-    False gives up there at once (the defaults' look in every tile of a natural forest).
+    Where the neighbours' directions mislead, it looks at the positions' spectrum
+    (:func:`~lidartrees_gis.plantation.spectrum._spectral_guess`, about 0.25 s on 5,000 tops):
+    always where the directions concentrate (:data:`PLANTING_MIN_SHARE`: rows the neighbour
+    fit missed, as where closed crowns merged a share of the tops along the rows); where they
+    are spread only with ``spectral`` (False gives up there at once: the defaults' look in
+    every tile of a natural forest).
 
     Returns
     -------
@@ -497,9 +500,9 @@ def detect_planting(x, y, *, min_trees: int = PLANTING_MIN_TREES,
         g = _detect_from(x, y, dx, dy, np.radians(a0),
                          float(np.median(across[np.isfinite(across)])),
                          float(np.median(along[np.isfinite(along)])), min_fit)
-    if spectral and (g is None or g.fit < min_fit):
+    if g is None or g.fit < min_fit:
         # the neighbours' directions misled (a CHM grid's favoured directions, extra tops
-        # between the trees): the positions' spectrum instead
+        # between the trees, tops merged along the rows): the positions' spectrum instead
         guess = _spectral_guess(dx, dy, cell)
         if guess is not None:
             g2 = _detect_from(x, y, dx, dy, *guess, min_fit)
