@@ -306,3 +306,34 @@ def write_trees_ptbr(path, rows: dict) -> None:
             ht = "" if not np.isfinite(rows["ht"][i]) else f"{rows['ht'][i]:.1f}".replace(".", ",")
             fh.write(f"{int(rows['parcela'][i])};{int(rows['arvore'][i])};"
                      f"{rows['dap'][i]:.1f}".replace(".", ",") + f";{ht}\n")
+
+
+def write_volume_example(folder, density: float = 4.0, n_plots: int = 9, seed: int = 0):
+    """A small farm to try ``lidartrees volume`` on (docs/VOLUME.md): in ``folder``,
+    ``farm.laz`` (3 x 2 stands of 110 m, ``density`` points/m²), ``stands.gpkg`` (field
+    ``talhao``), ``plots.gpkg`` (``n_plots`` plot centres, field ``parcela``; radius 11.28 m)
+    and ``arvores.csv`` (the plots' trees as a pt-BR spreadsheet exports them, HT on 40 %).
+    Returns ``(truth, trees)``: the farm's truth (:func:`make_farm`) and the table's rows."""
+    from pathlib import Path
+
+    import geopandas as gpd
+    import pyproj
+    import shapely
+
+    from .io.lasout import write_points
+
+    d = Path(folder)
+    d.mkdir(parents=True, exist_ok=True)
+    p = FarmParams(cols=3, rows=2, side=110, density=density, seed=seed)
+    pts, truth = make_farm(p)
+    write_points(d / "farm.laz", pts.x, pts.y, pts.z, crs=pyproj.CRS(CRS),
+                 classification=pts.classification)
+    boxes = truth["stands"]["box"]
+    gpd.GeoDataFrame({"talhao": [f"T{k + 1}" for k in range(len(boxes))]},
+                     geometry=[shapely.box(*b) for b in boxes], crs=CRS).to_file(d / "stands.gpkg")
+    x, y, _ = farm_plots(p, per_ha=n_plots / (p.cols * p.rows * p.side ** 2 / 1e4), seed=seed)
+    gpd.GeoDataFrame({"parcela": np.arange(1, x.size + 1)}, geometry=gpd.points_from_xy(x, y),
+                     crs=CRS).to_file(d / "plots.gpkg")
+    rows = plot_trees(truth, x, y, ht_share=0.4, seed=seed)
+    write_trees_ptbr(d / "arvores.csv", rows)
+    return truth, rows

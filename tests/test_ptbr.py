@@ -140,3 +140,17 @@ def test_api_and_info_take_what_the_commands_take(data, tmp_path, capsys):
     assert chm.shape[0] * prof["transform"].a > 500  # both files, 540 m north to south
     tops, crowns, summary = lt.find_trees(str(folder / "bcts_[12].laz"))
     assert len(tops) == len(crowns) == summary["trees"] and tops["y"].max() > 629600
+
+
+def test_a_decimal_comma_table_gets_the_bom_a_spreadsheet_needs():
+    """-lco DECIMAL=COMMA on any locale: a BOM unless WRITE_BOM=NO (Excel reads UTF-8 without
+    one as Windows-1252: São -> SÃ£o); a point-decimal table none."""
+    from lidartrees_gis.io.tables import TableOptions
+
+    en = {"LANG": "en_US.UTF-8"}
+    assert TableOptions.from_options({"SEPARATOR": "SEMICOLON", "DECIMAL": "COMMA"}, en) \
+        == TableOptions(";", ",", True)
+    assert TableOptions.from_options({"DECIMAL": "COMMA", "WRITE_BOM": "NO"}, en).write_bom \
+        is False
+    assert TableOptions.from_options({"SEPARATOR": "SEMICOLON"}, en).write_bom is False
+    assert TableOptions.from_options({}, en) == TableOptions(",", ".", False)

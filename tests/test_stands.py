@@ -210,6 +210,17 @@ def test_bad_stand_files_are_named(two_stands, tmp_path, capsys):
         load_stands(pts, crs)
     with pytest.raises(InputError, match="has no field 'lote'.*fields: id"):
         load_stands(g.iloc[[0]], crs, "lote")
+    # one id on two parts: a stand in two parts when they agree, two stands given one id
+    # (said) when another attribute differs
+    parts = gpd.GeoDataFrame({"talhao": ["A", "A", "B", "B"], "clone": ["x", "y", "z", "z"]},
+                             geometry=[shapely.box(OX + 50 * k, OY, OX + 50 * k + 40, OY + 40)
+                                       for k in range(4)], crs="EPSG:31984")
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        st = load_stands(parts, crs)
+    said = [str(x.message) for x in w if issubclass(x.category, DataWarning)]
+    assert st.ids == ("A", "B") and len(said) == 1 and "A (clone)" in said[0], said
+    assert "B (" not in said[0]
     out = tmp_path / "t.gpkg"
     assert main(["trees", str(two_stands["las"]), str(out), "-stands",
                  str(tmp_path / "none.gpkg"), "-q"]) == 1

@@ -2,6 +2,7 @@
 CLI and Python, the outputs' fields, stand volumes near the truth, and one line per bad
 input with nothing written."""
 import json
+import re
 
 import numpy as np
 import pytest
@@ -12,27 +13,9 @@ EQ = "0.000049,1.85,1.05"  # the generator's Schumacher-Hall
 
 
 def _write_farm(d, density=4.0, n_plots=9, seed=0):
-    import geopandas as gpd
-    import pyproj
-    import shapely
+    from lidartrees_gis.synthetic import write_volume_example
 
-    from lidartrees_gis.io.lasout import write_points
-    from lidartrees_gis.synthetic import (CRS, FarmParams, farm_plots, make_farm, plot_trees,
-                                          write_trees_ptbr)
-
-    p = FarmParams(cols=3, rows=2, side=110, density=density, seed=seed)
-    pts, truth = make_farm(p)
-    write_points(d / "farm.laz", pts.x, pts.y, pts.z, crs=pyproj.CRS(CRS),
-                 classification=pts.classification)
-    boxes = truth["stands"]["box"]
-    gpd.GeoDataFrame({"talhao": [f"T{k + 1}" for k in range(len(boxes))]},
-                     geometry=[shapely.box(*b) for b in boxes], crs=CRS).to_file(d / "stands.gpkg")
-    x, y, _ = farm_plots(p, per_ha=n_plots / (6 * 1.21), seed=seed)
-    gpd.GeoDataFrame({"parcela": np.arange(1, x.size + 1)}, geometry=gpd.points_from_xy(x, y),
-                     crs=CRS).to_file(d / "plots.gpkg")
-    rows = plot_trees(truth, x, y, ht_share=0.4, seed=seed)
-    write_trees_ptbr(d / "arvores.csv", rows)
-    return truth, rows
+    return write_volume_example(d, density=density, n_plots=n_plots, seed=seed)
 
 
 @pytest.fixture(scope="module")
@@ -139,6 +122,9 @@ def test_cli_both_approaches(farm, tmp_path, capsys):
                      f" % ({rep['total_m3_low']:.0f}-{rep['total_m3_high']:.0f}); tree method "
                      f"{rep['tree_approach']['total_m3']:.0f} m³ ±"
                      + total[0].split("tree method ")[1].split("±")[1]]
+    assert rep["inputs"]["points"] == str(d / "farm.laz") and rep["tool"].startswith(
+        "lidartrees_gis ") and rep["created"][:2] == "20"
+    assert list(plots.columns[:3]) == ["plot_id", "parcela", "stand_id"]  # the crew's fields
     m = rep["volume_model"]
     assert m["plots"] == 9 and 1 <= len(m["predictors"]) <= 2 and m["loo_rmse_pct"] < 15
     assert rep["field"]["heights_estimated"] > 0 and rep["field"]["hypsometric"]["trees"] > 0
@@ -227,6 +213,21 @@ def test_bad_inputs_one_line_no_output(farm, tmp_path, capsys):
     a = _args(d, out, "-volume_equation", EQ, "-stand_csv", str(tmp_path / "st.csv"))
     assert "st.csv: output exists; use -overwrite" in _bad(capsys, a, tmp_path, out)
     assert (tmp_path / "st.csv").read_text() == "keep\n"
+    # the crew's plot coordinates as a CSV table: a vector layer is asked for
+    (tmp_path / "parcelas.csv").write_text("parcela;x;y\n1;412050;7952050\n")
+    a = _args(d, out, "-volume_equation", EQ)
+    a[2] = str(tmp_path / "parcelas.csv")
+    assert "a table without geometries" in _bad(capsys, a, tmp_path, out)
+    # another run writing one of the outputs: refused at the start, nothing written
+    from test_claims import _hold
+
+    hold = _hold(tmp_path / "vol_report.png", 60)
+    try:
+        line = _bad(capsys, _args(d, out, "-volume_equation", EQ), tmp_path, out)
+        assert "vol_report.png is being written by another run" in line, line
+    finally:
+        hold.kill()
+        hold.wait()
     # the tree approach without trees
     a = _args(d, out, "-approach", "trees")
     i = a.index("-trees_table")
@@ -254,6 +255,14 @@ def test_field_table_forms(tmp_path):
     assert f["volume_m3_ha"][0] == pytest.approx(v1)
     with pytest.raises(InputError, match="b0,b1,b2"):
         Equation.parse("1,2")
+    # a workbook's named sheet (PATH.xlsx:SHEET), as the crew's file has a cover sheet first
+    import pandas as pd
+
+    with pd.ExcelWriter(tmp_path / "t.xlsx") as w:
+        pd.DataFrame({"nota": ["capa"]}).to_excel(w, sheet_name="Capa", index=False)
+        pd.read_csv(tmp_path / "t.csv").to_excel(w, sheet_name="Dados", index=False)
+    tx = read_trees(f"{tmp_path / 't.xlsx'}:Dados")
+    assert np.allclose(tx["dap"], t["dap"]) and tx["rows_without_dap"] == 1
     # a form factor (fator de forma) as companies without an equation use: V = f·g·HT
     ff = Equation.parse("ff:0,45")
     assert ff(20.0, 25.0) == pytest.approx(0.45 * np.pi * 0.2 ** 2 / 4 * 25.0)
@@ -334,3 +343,109 @@ def test_stand_lines_never_print_nan():
                                 "2.00 ha, 1 plot")
     assert lines["stand B"].startswith("area-based: no figure")
     assert not any("nan" in v.lower() for v in lines.values())
+
+
+def test_units_and_coefficients_a_crew_gets_wrong_are_refused(tmp_path):
+    """HT in centimetres, DAP in metres, a young stand's DAP in millimetres (its median alone
+    looks like centimetres), a b0 ten thousand times too large, volumes in dm³: each one line
+    naming the column or the option; plot 01 of a spreadsheet is plot 1 of the layer."""
+    from lidartrees_gis.errors import InputError
+    from lidartrees_gis.inventory.field import (Equation, complete_trees, plot_figures,
+                                                read_trees)
+
+    rng = np.random.default_rng(0)
+    ht = rng.uniform(8, 12, 30)
+    dap = 0.9 * ht ** 0.91
+    vol = 0.000049 * dap ** 1.85 * ht ** 1.05
+
+    def table(name, d=dap, h=ht, v=None, plot="1"):
+        rows = ["parcela;arvore;dap;ht" + (";volume" if v is not None else "")]
+        for i in range(d.size):
+            rows.append(f"{plot};{i + 1};{d[i]:.3f};{h[i]:.2f}"
+                        + (f";{v[i]:.6f}" if v is not None else ""))
+        (tmp_path / name).write_text("\n".join(rows) + "\n")
+        return tmp_path / name
+
+    for name, kw, words in (("cm.csv", {"h": ht * 100}, "centimetres or decimetres? give metres"),
+                            ("m.csv", {"d": dap / 100}, "metres? give centimetres"),
+                            ("mm.csv", {"d": dap * 10}, "millimetres? give centimetres")):
+        with pytest.raises(InputError, match=re.escape(words)) as e:
+            read_trees(table(name, **kw))
+        assert name in str(e.value)
+    t = read_trees(table("ok.csv"))
+    with pytest.raises(InputError, match="-volume_equation 0.49,1.85,1.05: .*form factor"):
+        complete_trees(t, Equation(0.49, 1.85, 1.05))
+    with pytest.raises(InputError, match="dm3.csv: volume column: .*form factor"):
+        complete_trees(read_trees(table("dm3.csv", v=vol * 1000)), None)
+    c = complete_trees(read_trees(table("zero.csv", plot="01")), Equation(0.000049, 1.85, 1.05))
+    f = plot_figures(c, ["1"], [400.0])
+    assert f["n_trees"].tolist() == [30] and f["volume_m3_ha"][0] == pytest.approx(
+        vol.sum() / 0.04, rel=1e-3)
+
+
+def test_no_stand_below_nothing_and_outside_the_plots_said(recwarn):
+    """A linear model applied to a young stand without plots (its metrics below every plot's)
+    would go negative: the stand gets 0 inside its interval, and one warning names it."""
+    import shapely
+
+    from lidartrees_gis.errors import DataWarning
+    from lidartrees_gis.grid import GridSpec
+    from lidartrees_gis.inventory.models import AbaModel, aba_stands
+    from lidartrees_gis.inventory.volume import _warn_stands
+    from lidartrees_gis.plantation.stands import Stands
+
+    rng = np.random.default_rng(1)
+    n = 10
+    pm = {"zq95": rng.uniform(15, 30, n)}
+    y = -150 + 20 * pm["zq95"] + rng.normal(0, 5, n)
+    X = np.column_stack([np.ones(n), pm["zq95"]])
+    coef = np.linalg.lstsq(X, y, rcond=None)[0]
+    fitted = X @ coef
+    loo = fitted + rng.normal(0, 5, n)
+    m = AbaModel("linear", ("zq95",), coef, 25.0, n, stats={"fitted": fitted, "loo": loo})
+    cell_stand = np.repeat([0, 1], 9)
+    cm = {"zq95": np.r_[rng.uniform(18, 26, 9), rng.uniform(4, 5, 9)],
+          "cover": np.ones(18)}
+    est = aba_stands(m, pm, y, cm, cell_stand, 2, np.zeros(n, int), resamples=50,
+                     reselect=False)
+    assert est["estimate"][1] == 0.0 and est["low"][1] <= 0.0 <= est["high"][1]
+    assert est["estimate"][0] > 100
+    spec = GridSpec(0.0, 60.0, 20.0, 6, 3)  # two 60 x 60 m stands, side by side
+    st = Stands(("A", "young"), np.array([shapely.box(0, 0, 60, 60),
+                                          shapely.box(60, 0, 120, 60)]))
+    cs = np.array([0, 0, 0, 1, 1, 1] * 3)
+    cells = {"zq95": np.where(cs == 0, 22.0, 4.5), "cover": np.ones(18)}
+    _warn_stands(st, spec, cells, cs, pm, {"volume": (m, None, est)})
+    said = [str(w.message) for w in recwarn if issubclass(w.category, DataWarning)]
+    assert len(said) == 1 and "young (zq95 4.5; plots" in said[0], said
+
+
+def test_stands_the_points_do_not_cover_are_said_and_left_out_of_the_total(farm, tmp_path,
+                                                                            capsys):
+    """A stand half beyond the flight and one wholly beyond it: one warning gives each one's
+    cover; the total says which stand it leaves out; the m³ of the others unchanged."""
+    import geopandas as gpd
+    import shapely
+
+    d, _, _ = farm
+    st = gpd.read_file(d / "stands.gpkg")
+    x0, y0, x1, y1 = st.total_bounds
+    extra = gpd.GeoDataFrame({"talhao": ["H", "F"]}, geometry=[
+        shapely.box(x1 - 50, y0, x1 + 50, y0 + 100), shapely.box(x1 + 200, y0, x1 + 300, y0 + 100)],
+        crs=st.crs)
+    gpd.pd.concat([st, extra], ignore_index=True).pipe(gpd.GeoDataFrame, crs=st.crs).to_file(
+        tmp_path / "more.gpkg")
+    a = _args(d, tmp_path / "v.gpkg", "-volume_equation", EQ, "-resamples", "30")
+    a[a.index("-stands") + 1] = str(tmp_path / "more.gpkg")
+    a.remove("-q")
+    capsys.readouterr()
+    assert main(a) == 0
+    out, err = capsys.readouterr()
+    warned = [ln for ln in err.splitlines() if "covered by the points" in ln]
+    # (cover by the metric cells: half the stand, to a cell)
+    assert len(warned) == 1 and re.search(r"H \((5|6)\d %\)", warned[0]), warned
+    assert "F (0 %)" in warned[0]
+    total = next(ln for ln in out.splitlines() if ln.startswith("total: "))
+    assert total.endswith("; without F (no figure)"), total
+    s = gpd.read_file(tmp_path / "v.gpkg", layer="stands")
+    assert s["volume_m3"].isna().tolist() == [False] * 7 + [True]

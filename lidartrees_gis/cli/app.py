@@ -69,7 +69,9 @@ def build_parser() -> argparse.ArgumentParser:
                             allow_abbrev=False)
         for p in cmd.params:
             _add_param(sp, p)
-        sp.add_argument("-q", "--quiet", action="store_true", help="No progress bar or summary")
+        sp.add_argument("-q", "--quiet", action="store_true",
+                        help="No progress bar (the summary, warnings and errors are still "
+                        "printed)")
         # for programs driving the CLI (the QGIS provider): progress lines and a result file
         sp.add_argument("--progress-lines", action="store_true", help=argparse.SUPPRESS)
         sp.add_argument("--result-json", metavar="FILE", help=argparse.SUPPRESS)

@@ -34,6 +34,16 @@ FIELD_COLUMNS = {
 }
 #: a DAP median above this (cm) is taken for millimetres and refused
 DAP_MM = 100.0
+#: a DAP median below this (cm) is taken for metres and refused
+DAP_MIN_CM = 1.0
+#: an HT median above this (m) is taken for centimetres or decimetres and refused
+HT_MAX_M = 80.0
+#: a median DAP (cm) per metre of HT above this is taken for a DAP in millimetres (stems:
+#: 0.4-1.5; in millimetres 4-15)
+DAP_PER_HT_MAX = 3.0
+#: the median artificial form factor V / (g·HT) a tree table's volumes may have (stems:
+#: 0.35-0.6; a b0 10 times off, or dm³, falls outside)
+FORM_RANGE = (0.15, 1.5)
 
 
 @dataclass(frozen=True)
@@ -66,7 +76,8 @@ class Equation:
                 raise ValueError
         except ValueError:
             raise InputError(f"-volume_equation: expected b0,b1,b2 (V = b0·DAP^b1·HT^b2, b0 > "
-                             f"0) or ff:F (a form factor), got {text!r}") from None
+                             f"0: of ln V = ln b0 + ..., give exp(ln b0)) or ff:F (a form "
+                             f"factor), got {text!r}") from None
         return cls(*vals)
 
     def __call__(self, dap, ht):
@@ -131,8 +142,14 @@ def read_trees(path) -> dict:
         raise InputError(f"-trees_table: {path}: {name} column {col!r} has a median of "
                          f"{med * (1 if name == 'DAP' else np.pi):.0f} (above {limit:.0f}): "
                          "millimetres? give centimetres (divide by 10)")
+    if med < DAP_MIN_CM:
+        col = cols.get("dap", cols.get("cap"))
+        raise InputError(f"-trees_table: {path}: {name} column {col!r} has a median of "
+                         f"{med * (1 if name == 'DAP' else np.pi):.3g} (a DAP below "
+                         f"{DAP_MIN_CM:g} cm): metres? give centimetres (multiply by 100)")
     n = len(df)
     ht = _numbers(df, cols["ht"], path, "HT") if "ht" in cols else np.full(n, np.nan)
+    _check_heights(ht, dap, ok, path, cols)
     vol = _numbers(df, cols["volume"], path, "volume") if "volume" in cols else np.full(n, np.nan)
     tree = df[cols["tree"]].astype(str).to_numpy() if "tree" in cols else \
         np.arange(1, n + 1).astype(str)
@@ -141,6 +158,34 @@ def read_trees(path) -> dict:
     return {"plot": np.asarray(plot, dtype=object)[keep], "tree": tree[keep], "dap": dap[keep],
             "ht": np.where(ht > 0, ht, np.nan)[keep], "volume": vol[keep],
             "rows_without_dap": int(dead.sum()), "path": str(path)}
+
+
+def _check_heights(ht, dap, ok, path, cols) -> None:
+    """Refuse heights in centimetres or decimetres, and a DAP in millimetres that the DAP
+    column alone does not show (a young stand's: median 85 mm) but its ratio to HT does."""
+    h = np.isfinite(ht) & (ht > 0)
+    if not h.any():
+        return
+    med = float(np.median(ht[h]))
+    if med > HT_MAX_M:
+        raise InputError(f"-trees_table: {path}: HT column {cols['ht']!r} has a median of "
+                         f"{med:.0f} (above {HT_MAX_M:g} m): centimetres or decimetres? give "
+                         "metres")
+    both = h & ok
+    if both.sum() >= 5:
+        r = float(np.median(dap[both] / ht[both]))
+        if r > DAP_PER_HT_MAX:
+            col = cols.get("dap", cols.get("cap"))
+            raise InputError(f"-trees_table: {path}: DAP from {col!r} is {r:.1f} cm per metre "
+                             f"of HT at the median (trees: 0.4-1.5): millimetres? give "
+                             "centimetres (divide by 10)")
+
+
+def form_factors(trees: dict) -> np.ndarray:
+    """Each tree's artificial form factor ``V / (g · HT)`` (``g = π DAP² / 40000`` m²)."""
+    g = np.pi * np.asarray(trees["dap"], float) ** 2 / 40000.0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.asarray(trees["volume"], float) / (g * np.asarray(trees["ht"], float))
 
 
 def fit_hypsometric(dap, ht) -> tuple:
@@ -163,7 +208,8 @@ def fit_schumacher(dap, ht, vol) -> Equation:
     if ok.sum() < 5:
         raise InputError(f"-trees_table: {int(ok.sum())} trees carry a volume: give "
                          "-volume_equation b0,b1,b2 (Schumacher-Hall V = b0·DAP^b1·HT^b2, DAP "
-                         "cm, HT m) or at least 5 trees with their volume")
+                         "cm, HT m), or ff:F (a form factor), or at least 5 trees with their "
+                         "volume")
     X = np.column_stack([np.ones(ok.sum()), np.log(dap[ok]), np.log(ht[ok])])
     y = np.log(vol[ok])
     coef, *_ = np.linalg.lstsq(X, y, rcond=None)
@@ -185,13 +231,39 @@ def complete_trees(trees: dict, equation: Equation | None) -> dict:
         ht[missing] = np.exp(a + b / dap[missing])
         t["hypsometric"] = {"form": "ln(HT) = a + b / DAP", "a": a, "b": b, "trees": n,
                             "rmse_m": rmse}
-    if equation is None and np.isfinite(vol).all():
+    given = np.isfinite(vol)
+    if given.any():  # the table's own volumes: a column in dm³, or of another quantity
+        _check_form({"dap": dap[given], "ht": ht[given], "volume": vol[given]},
+                    f"-trees_table: {t.get('path')}: volume column")
+    if equation is None and given.all():
         eq = None
     else:
         eq = equation or fit_schumacher(dap, ht, vol)
-        vol = np.where(np.isfinite(vol), vol, eq(dap, ht))
+        if equation is not None:
+            _check_form({"dap": dap, "ht": ht, "volume": eq(dap, ht)},
+                        f"-volume_equation {eq.b0:g},{eq.b1:g},{eq.b2:g}")
+        vol = np.where(given, vol, eq(dap, ht))
     t.update(ht=ht, volume=vol, ht_estimated=missing, equation=eq)
     return t
+
+
+def _check_form(trees, what) -> None:
+    """Refuse volumes whose median form factor no stem has (a coefficient mistyped, b0 of the
+    logarithmic form, a volume column in dm³)."""
+    f = form_factors(trees)
+    f = f[np.isfinite(f)]
+    if f.size and not FORM_RANGE[0] <= float(np.median(f)) <= FORM_RANGE[1]:
+        raise InputError(f"{what}: the plots' trees' median form factor V / (g·HT) is "
+                         f"{float(np.median(f)):.3g}, outside {FORM_RANGE[0]:g}-"
+                         f"{FORM_RANGE[1]:g} (eucalyptus: about 0.45): check the coefficients "
+                         "(b0 of V, not of ln V) or the volume's unit (m³)")
+
+
+def _id_key(p) -> str:
+    """A plot id as the table and the layer are matched: a number without its leading zeros
+    (``01`` of a spreadsheet is plot ``1`` of the layer), anything else as written."""
+    s = str(p).strip()
+    return str(int(s)) if s.isdigit() else s
 
 
 def plot_figures(trees: dict, plot_ids, plot_area_m2) -> dict:
@@ -199,8 +271,8 @@ def plot_figures(trees: dict, plot_ids, plot_area_m2) -> dict:
     ``trees_ha``, ``n_trees``, ``mean_ht``. Refuses plots that have no tree and trees of no
     plot of the layer."""
     ids = [str(p) for p in plot_ids]
-    index = {p: i for i, p in enumerate(ids)}
-    k = np.array([index.get(str(p), -1) for p in trees["plot"]])
+    index = {_id_key(p): i for i, p in enumerate(ids)}
+    k = np.array([index.get(_id_key(p), -1) for p in trees["plot"]])
     if (k < 0).all():
         raise InputError(f"-trees_table: {trees['path']}: none of its plot ids "
                          f"({listing(sorted(set(map(str, trees['plot']))))}) is a plot of "

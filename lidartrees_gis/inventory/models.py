@@ -346,14 +346,16 @@ def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_
     n, p = y.size, len(model.predictors)
     Xc = model.design(cell_metrics)
     valid = np.isfinite(Xc).all(axis=1)
-    synth, cells = _stand_means(np.where(valid, model.predict(cell_metrics), np.nan),
-                                cell_stand, n_stands)
+    # no cell holds less than nothing: a linear model below its plots' heights (a young stand
+    # without a plot) would go negative
+    synth, cells = _stand_means(np.where(valid, np.maximum(model.predict(cell_metrics), 0.0),
+                                         np.nan), cell_stand, n_stands)
     resid = y - model.stats["loo"]
     s2_b = stand_variance(resid, plot_stand, plot_noise)
     fx = _stand_correction(y - model.stats["fitted"], plot_stand, n_stands, s2_b, plot_noise,
                            stand_effect)
     gw = fx["weight"]
-    est = synth + fx["effect"]
+    est = np.maximum(synth + fx["effect"], 0.0)
     rng = np.random.default_rng(seed)
     designs = {}
 
@@ -390,7 +392,7 @@ def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_
         eta = Xr[ok] @ coef
         pred = np.full(Xr.shape[0], np.nan)
         with np.errstate(over="ignore"):
-            pred[ok] = np.exp(eta + s2 / 2) if m.form == "loglog" else eta
+            pred[ok] = np.exp(eta + s2 / 2) if m.form == "loglog" else np.maximum(eta, 0.0)
         rep = _stand_means(pred, cell_stand, n_stands)[0]
         if gw.any():  # the resample's model corrected by the stand's own plots, as above
             with np.errstate(over="ignore"):
@@ -462,7 +464,7 @@ def ratio_stands(field_v, lidar_v, stand_lidar_v, plot_stand, *, plot_noise=None
     s2_b = stand_variance(resid, plot_stand, plot_noise)
     fx = _stand_correction(f - R * d, plot_stand, sv.size, s2_b, plot_noise, stand_effect)
     gw = fx["weight"]
-    est = synth + fx["effect"]
+    est = np.maximum(synth + fx["effect"], 0.0)
     # the stands' figures over resamples of the plots: R again, and each stand corrected by
     # its own plots' residuals from that R (as :func:`aba_stands`)
     rng = np.random.default_rng(seed)

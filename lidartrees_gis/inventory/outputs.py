@@ -6,6 +6,7 @@ import json
 
 import numpy as np
 
+from ..errors import listing
 from .models import CANDIDATES, total_interval
 
 FIELD_DOCS = {
@@ -40,14 +41,16 @@ def _stand_fields(prefix, est, area_ha):
     return out
 
 
-def _with_attributes(sdf, attributes):
-    """The stands' own attributes (clone, age, the id field) after ``stand_id``, as the trees
-    command's stands layer has them; a name the layer uses for a figure gets ``_input``."""
+def _with_attributes(sdf, attributes, key="stand_id"):
+    """The stands' (plots') own attributes (clone, age, the id field) after ``key``, as the
+    trees command's stands layer has them; a name the layer uses for a figure gets
+    ``_input``."""
     import pandas as pd
 
-    if not attributes:
+    if attributes is None or len(attributes) == 0:
         return sdf
-    att = pd.DataFrame(list(attributes))
+    att = pd.DataFrame(list(attributes)) if not isinstance(attributes, pd.DataFrame) else \
+        attributes.reset_index(drop=True)
     taken = {c.lower() for c in sdf.columns} | {"fid", "geom", "geometry"}
     names = {}
     for c in att.columns:
@@ -57,7 +60,7 @@ def _with_attributes(sdf, attributes):
         taken.add(n.lower())
         names[c] = n
     att = att.rename(columns=names)
-    return pd.concat([sdf[["stand_id"]], att, sdf.drop(columns="stand_id")], axis=1)
+    return pd.concat([sdf[[key]], att, sdf.drop(columns=key)], axis=1)
 
 
 def build(area, plots, stands, meas, pm, plot_stand, res_aba, res_trees, spec, cm, options,
@@ -110,7 +113,7 @@ def build(area, plots, stands, meas, pm, plot_stand, res_aba, res_trees, spec, c
         for k, v in _stand_fields("volume", est, stands.area_ha).items():
             sdf[k] = v
         sdf["cells"] = est["cells"]
-        vol_grid = model.predict(cm).reshape(spec.shape)
+        vol_grid = np.maximum(model.predict(cm), 0.0).reshape(spec.shape)
         report["volume_model"] = _model_report(model, table, est)
     if "basal_area" in res_aba:
         model, table, est = res_aba["basal_area"]
@@ -136,6 +139,7 @@ def build(area, plots, stands, meas, pm, plot_stand, res_aba, res_trees, spec, c
         tops = res_trees["tops"]
         layers["tree_tops"] = tops
     sdf = _with_attributes(sdf, stands.attributes)
+    pdf = _with_attributes(pdf, plots.attrs, "plot_id")
     layers = {"plots": gpd.GeoDataFrame(pdf, geometry=list(plots.geoms), crs=area.crs),
               "stands": gpd.GeoDataFrame(sdf, geometry=list(stands.geoms), crs=area.crs),
               **layers}
@@ -150,6 +154,9 @@ def build(area, plots, stands, meas, pm, plot_stand, res_aba, res_trees, spec, c
             if "total_m3" not in report:
                 report.update({k: part[k] for k in ("total_m3", "total_m3_low",
                                                     "total_m3_high")})
+    if "total_m3" in report:  # the stands the total leaves out (no figure: not flown)
+        report["total_left_out"] = [str(s) for s, v in zip(sdf["stand_id"], sdf["volume_m3"])
+                                    if not np.isfinite(v)]
     return layers, report, vol_grid
 
 
@@ -166,6 +173,9 @@ def total_line(report) -> str:
     tr = report.get("tree_approach") or {}
     if "volume_model" in report and "total_m3" in tr:
         text = f"area-based {text}; tree method {one(tr)}"
+    out = report.get("total_left_out")
+    if out:
+        text += f"; without {listing(out, 8)} (no figure)"
     return text
 
 

@@ -25,7 +25,7 @@ from ..bounds import check_fields
 from ..errors import DataWarning, InputError, listing
 from ..io.names import normalise
 from ..io.options import ReadOptions
-from ..io.output import OutputOptions, check_outputs
+from ..io.output import OutputOptions, check_outputs, claim_outputs
 from ..progress import SubProgress, as_progress
 from .chain import open_points
 from .field import Equation, complete_trees, plot_figures, read_trees
@@ -194,6 +194,50 @@ def _aba(pm, figures, cm, cell_stand, n_stands, plot_stand, options) -> dict:
     return out
 
 
+def _warn_stands(st, spec, cm, cell_stand, pm, res_aba) -> None:
+    """Warn (the run goes on) of stands the points do not cover (their m³/ha is their flown
+    part's) and of stands whose metrics lie beyond the plots' (the model extrapolates)."""
+    import shapely
+    from rasterio.features import shapes
+
+    from ..plantation.stands import MIN_DATA_COVER_PCT
+
+    flown = np.isfinite(cm["cover"]).reshape(spec.shape)
+    parts = [shapely.geometry.shape(g) for g, v in shapes(flown.astype(np.uint8), mask=flown,
+                                                           transform=spec.transform)]
+    cover = shapely.union_all(parts) if parts else shapely.Polygon()
+    with np.errstate(invalid="ignore", divide="ignore"):
+        share = 100.0 * shapely.area(shapely.intersection(st.geoms, cover)) / \
+            shapely.area(st.geoms)
+    thin = [f"{st.ids[k]} ({share[k]:.0f} %)" for k in np.flatnonzero(
+        ~(share >= MIN_DATA_COVER_PCT))]
+    if thin:
+        warnings.warn(DataWarning(
+            f"STANDS: {len(thin)} stands less than {MIN_DATA_COVER_PCT:g} % covered by the "
+            f"points: {listing(thin, 8)}; a stand's m³/ha is its flown part's (none without "
+            "one) and its m³ that figure times its whole area"), stacklevel=3)
+    if "volume" not in res_aba:
+        return
+    model = res_aba["volume"][0]
+    out = []
+    for p in model.predictors:
+        v = np.asarray(pm[p], float)
+        lo, hi = float(np.nanmin(v)), float(np.nanmax(v))
+        pad = 0.1 * (hi - lo)
+        c = np.asarray(cm[p], float)
+        ok = (cell_stand >= 0) & np.isfinite(c)
+        n = np.bincount(cell_stand[ok], minlength=len(st.ids))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mean = np.bincount(cell_stand[ok], weights=c[ok], minlength=len(st.ids)) / n
+        for k in np.flatnonzero((n > 0) & ((mean < lo - pad) | (mean > hi + pad))):
+            out.append(f"{st.ids[k]} ({p} {mean[k]:.3g}; plots {lo:.3g}-{hi:.3g})")
+    if out:
+        warnings.warn(DataWarning(
+            f"PLOTS: {len(out)} stand(s) beyond the plots' range of the model's metrics: "
+            f"{listing(out, 6)}; their figures extrapolate the model (a plot there would "
+            "tell)"), stacklevel=3)
+
+
 def volume_run(input, plots, output, *, stands, trees_table=None, plot_id=None,
                plot_radius=None, stand_id=None, stand_csv=None,
                options: VolumeOptions | None = None,
@@ -204,9 +248,7 @@ def volume_run(input, plots, output, *, stands, trees_table=None, plot_id=None,
     ``stands``, and ``tree_tops`` with the tree approach) or None (kept in memory); the
     volume raster and the report (JSON, PNG) are written beside it
     (:func:`side_outputs`)."""
-    from ..plantation.stands import load_stands
     from ..als.surfaces import SurfaceOptions
-    from . import outputs as outs
 
     options, metric = options or VolumeOptions(), metric or MetricOptions()
     read, out = read or ReadOptions(), out or OutputOptions()
@@ -228,6 +270,22 @@ def volume_run(input, plots, output, *, stands, trees_table=None, plot_id=None,
                       (input, plots, stands, trees_table), out.overwrite)
     elif stand_csv is not None:
         raise InputError("-stand_csv: needs the output GeoPackage")
+    claims = [(output, "OUTPUT"), *((p, k) for k, p in side.items()),
+              (stand_csv, "-stand_csv")] if output is not None else []
+    # held from the start: a second run into the same outputs is refused at once, not after
+    # its hours of work (and the first run's files are never half replaced)
+    with claim_outputs(claims, out.overwrite):
+        return _estimate(input, plots, output, stands, trees_table, plot_id, plot_radius,
+                         stand_id, stand_csv, options, metric, surface, read, tiling, out, prog,
+                         side)
+
+
+def _estimate(input, plots, output, stands, trees_table, plot_id, plot_radius, stand_id,
+              stand_csv, options, metric, surface, read, tiling, out, prog, side) -> dict:
+    """:func:`volume_run` once its outputs are checked and claimed."""
+    from ..plantation.stands import load_stands
+    from . import outputs as outs
+
     area = open_points(input, read)
     pl = load_plots(plots, area.crs, plot_id=plot_id, plot_radius=plot_radius)
     check_inside(pl, area.extent, area.label())
@@ -243,6 +301,10 @@ def volume_run(input, plots, output, *, stands, trees_table=None, plot_id=None,
             f"-trees_table: {trees_table}: the trees of {len(extra)} plot(s) not in PLOTS "
             f"({listing(extra, 8)}) enter the height, DAP and volume relations only, no "
             "plot's figures"), stacklevel=2)
+    if meas["trees"] is not None and meas["trees"].get("rows_without_dap"):
+        warnings.warn(DataWarning(
+            f"-trees_table: {trees_table}: {meas['trees']['rows_without_dap']} rows without a "
+            "DAP (dead or missing trees) left out of the plots' figures"), stacklevel=2)
     res = _cell_res(options, pl)
     prog.update(0.02, "metrics")
     r = area_metrics(area, cells_res=res, zones=[pl.zones], options=metric, surface=surface,
@@ -273,9 +335,20 @@ def volume_run(input, plots, output, *, stands, trees_table=None, plot_id=None,
                                            plot_noise=meas["figures"].get("sampling_var_m3_ha"),
                                            resamples=options.resamples, seed=options.seed,
                                            stand_effect=options.estimator == "eblup")
+    _warn_stands(st, spec, cm, cell_stand, pm, res_aba)
     prog.update(0.92, "writing")
     layers, report, vol_grid = outs.build(area, pl, st, meas, pm, plot_stand, res_aba, res_trees,
                                           spec, cm, options, metric, r)
+    from datetime import datetime, timezone
+
+    from .._version import __version__
+
+    # what a technical report cites: the files, the tool and when
+    report["inputs"] = {"points": str(input), "plots": pl.source, "stands": st.source,
+                        "trees_table": None if trees_table is None else str(trees_table),
+                        "estimator": options.estimator}
+    report["tool"] = f"lidartrees_gis {__version__}"
+    report["created"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
     result = {"output": None if output is None else str(output), "plots": len(pl),
               "stands": len(st), "cell_res": spec.res, "report": report, "layers": layers,
               "volume_grid": (spec, vol_grid)}

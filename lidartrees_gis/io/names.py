@@ -73,18 +73,23 @@ def match_column(name, table: dict):
 def read_text_table(path):
     """A CSV or text table as a pandas DataFrame, in whichever dialect it comes: comma,
     semicolon or tab separated, decimal point or comma (pt-BR spreadsheets: ``;`` and ``,``),
-    UTF-8 (with or without BOM), Windows-1252 or Latin-1; or the first sheet of an ``.xlsx``
-    workbook. Raises ValueError when it cannot be read."""
+    UTF-8 (with or without BOM), Windows-1252 or Latin-1; or a sheet of an ``.xlsx``
+    workbook (``PATH.xlsx:SHEET``, the first by default). Raises ValueError when it cannot be
+    read."""
     import pandas as pd
 
-    p = Path(path)
+    p, sheet = Path(path), 0
+    text = str(path)
+    if not p.exists() and ".xlsx:" in text.lower():
+        cut = text.lower().rindex(".xlsx:") + 5
+        p, sheet = Path(text[:cut]), text[cut + 1:]
     raw = p.read_bytes()
     if p.suffix.lower() == ".xlsx" or raw[:4] == b"PK\x03\x04":
         import io
         import zipfile
 
-        try:  # the first sheet; cells typed as numbers stay numbers, text stays text
-            return pd.read_excel(io.BytesIO(raw), sheet_name=0, engine="openpyxl")
+        try:  # cells typed as numbers stay numbers, text stays text
+            return pd.read_excel(io.BytesIO(raw), sheet_name=sheet, engine="openpyxl")
         except (zipfile.BadZipFile, KeyError, ValueError) as exc:
             raise ValueError(f"not a readable .xlsx workbook ({exc})") from None
     for enc in ("utf-8-sig", "cp1252", "latin-1"):  # latin-1 decodes any byte: the last

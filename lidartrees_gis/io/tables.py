@@ -73,7 +73,8 @@ class TableOptions:
     @classmethod
     def from_options(cls, options: dict | None = None, environ=None) -> "TableOptions":
         """The options ``-lco`` gives (``{"SEPARATOR": "SEMICOLON", ...}``, other keys
-        ignored) over the locale's defaults (pt_BR: ``;``, decimal comma, a BOM)."""
+        ignored) over the locale's defaults (pt_BR: ``;``, decimal comma, a BOM); a decimal
+        comma asked for brings the BOM too unless ``WRITE_BOM=NO``."""
         base = dict(separator=";", decimal=",", write_bom=True) if is_ptbr(environ) else {}
         opts = {str(k).upper(): str(v).strip() for k, v in (options or {}).items()}
         if "SEPARATOR" in opts:
@@ -94,6 +95,10 @@ class TableOptions:
                     raise InputError("-lco DECIMAL=COMMA needs another separator than a comma "
                                      "(SEPARATOR=SEMICOLON)")
                 base["separator"] = ";"
+        if "WRITE_BOM" not in opts and base.get("decimal") == ",":
+            # a decimal comma is a table for a pt-BR (or European) spreadsheet, which reads
+            # UTF-8 without a BOM as Windows-1252 (São -> SÃ£o)
+            base["write_bom"] = True
         if "WRITE_BOM" in opts:
             v = opts["WRITE_BOM"].upper()
             if v not in ("YES", "NO", "TRUE", "FALSE", "ON", "OFF", "1", "0"):

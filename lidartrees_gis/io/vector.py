@@ -110,6 +110,10 @@ def read_polygons(source, *, param: str):
 
         raise ReadError(f"{param}: {path}: cannot read as a vector file "
                         f"({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})") from None
+    if not isinstance(gdf, gpd.GeoDataFrame) or gdf.geometry.name not in gdf.columns:
+        raise InputError(f"{param}: {path}: a table without geometries; give a vector layer "
+                         "(GeoPackage, shapefile) of polygons or of points (in QGIS: Add "
+                         "Delimited Text Layer, then save it as a GeoPackage)")
     return gdf, f"{path}{':' + layer if layer else ''}"
 
 

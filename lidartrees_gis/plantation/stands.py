@@ -215,6 +215,7 @@ def load_stands(source, crs=None, id_field: str | None = None) -> Stands:
     _warn_overlaps(joined, order, name)
     first = {sid: j for j, sid in reversed(list(enumerate(ids)))}
     kept = gdf[keep]
+    _warn_shared_ids(kept, ids, name)
     drop = [kept.geometry.name] + ([used] if used and used.lower() == "stand_id" else [])
     attrs = user_attributes(kept.drop(columns=drop).iloc[[first[sid] for sid in order]])
     return Stands(tuple(order), joined, used, name, repro, tuple(attrs))
@@ -232,6 +233,26 @@ def _plain_value(v):
     except (TypeError, ValueError):
         pass
     return v.item() if isinstance(v, np.generic) else v
+
+
+def _warn_shared_ids(frame, ids, name) -> None:
+    """Features sharing an id are one stand in several parts; where their other attributes
+    differ (another clone, area or age) they look like two stands given one id: said."""
+    import pandas as pd
+
+    cols = [c for c in frame.columns if c != frame.geometry.name]
+    s = pd.Series(ids)
+    odd = []
+    for sid in s[s.duplicated()].unique():
+        rows = frame.iloc[np.flatnonzero(s.to_numpy() == sid)]
+        diff = [c for c in cols if rows[c].astype(str).nunique() > 1]
+        if diff:
+            odd.append(f"{sid} ({', '.join(map(str, diff[:3]))})")
+    if odd:
+        warnings.warn(DataWarning(
+            f"-stands: {name}: features sharing an id differ in their attributes, joined as one "
+            f"stand each: {', '.join(odd[:8])}{' ...' if len(odd) > 8 else ''}; give each "
+            "stand its own id"), stacklevel=3)
 
 
 def user_attributes(frame) -> list:
