@@ -215,7 +215,8 @@ def load_stands(source, crs=None, id_field: str | None = None) -> Stands:
     _warn_overlaps(joined, order, name)
     first = {sid: j for j, sid in reversed(list(enumerate(ids)))}
     kept = gdf[keep]
-    _warn_shared_ids(kept, ids, name)
+    if not id_field:  # a field the user names joins its features on purpose (per farm)
+        _warn_shared_ids(kept, ids, name)
     drop = [kept.geometry.name] + ([used] if used and used.lower() == "stand_id" else [])
     attrs = user_attributes(kept.drop(columns=drop).iloc[[first[sid] for sid in order]])
     return Stands(tuple(order), joined, used, name, repro, tuple(attrs))
@@ -237,7 +238,8 @@ def _plain_value(v):
 
 def _warn_shared_ids(frame, ids, name) -> None:
     """Features sharing an id are one stand in several parts; where their other attributes
-    differ (another clone, area or age) they look like two stands given one id: said."""
+    differ (another clone, area or age) they look like two stands given one id: said (with
+    the id field found, not given)."""
     import pandas as pd
 
     cols = [c for c in frame.columns if c != frame.geometry.name]
