@@ -122,6 +122,13 @@ def test_cli_both_approaches(farm, tmp_path, capsys):
                      f" % ({rep['total_m3_low']:.0f}-{rep['total_m3_high']:.0f}); tree method "
                      f"{rep['tree_approach']['total_m3']:.0f} m³ ±"
                      + total[0].split("tree method ")[1].split("±")[1]]
+    # why a stand's plots weigh what they weigh: the analysis of variance, in the report
+    for pre, part in (("volume", rep["volume_model"]), ("volume_trees", rep["tree_approach"])):
+        test = part["stands_differ_test"]
+        assert test["alpha"] == 0.05 and test["stands_2plus"] == 2
+        assert test["differ"] == (test["p"] <= 0.05)
+        if not test["differ"]:
+            assert (stands[f"{pre}_plots_weight"] == 0).all(), pre
     assert rep["inputs"]["points"] == str(d / "farm.laz") and rep["tool"].startswith(
         "lidartrees_gis ") and rep["created"][:2] == "20"
     assert list(plots.columns[:3]) == ["plot_id", "parcela", "stand_id"]  # the crew's fields

@@ -233,6 +233,32 @@ def between_variance(resid, stand, alpha: float | None = None) -> float:
     return max(0.0, (msb - within) / n0)
 
 
+def stand_test(resid, stand) -> dict:
+    """Why the stands' own plots do or do not correct them: the one-way analysis of variance
+    of the plots' residuals by stand that :func:`between_variance` applies (``stands_2plus``:
+    stands with two plots or more, ``f``, ``p``, ``alpha``, ``differ``)."""
+    resid, stand = np.asarray(resid, float), np.asarray(stand)
+    ok = (stand >= 0) & np.isfinite(resid)
+    resid, stand = resid[ok], stand[ok]
+    ids, inv, counts = np.unique(stand, return_inverse=True, return_counts=True)
+    out = {"stands_2plus": int((counts >= 2).sum()), "alpha": STAND_ALPHA, "f": None,
+           "p": None, "differ": False}
+    if out["stands_2plus"] < 2:
+        out["why"] = "fewer than two stands hold two plots: the stands cannot be told apart"
+        return out
+    from scipy import stats
+
+    means = np.bincount(inv, weights=resid) / counts
+    dof = resid.size - ids.size
+    within = float(np.sum((resid - means[inv]) ** 2) / max(dof, 1))
+    msb = float(np.sum(counts * (means - resid.mean()) ** 2) / max(ids.size - 1, 1))
+    if within > 0:
+        f = msb / within
+        out.update(f=round(f, 3), p=round(float(stats.f.sf(f, ids.size - 1, dof)), 4))
+        out["differ"] = out["p"] <= STAND_ALPHA
+    return out
+
+
 def boot_variance(reps, n: int) -> np.ndarray:
     """A variance robust to the few wild refits of small resamples: that of a normal with the
     resamples' central 95 % range, ``((q97.5 - q2.5) / 3.92)²``."""
@@ -410,6 +436,7 @@ def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_
     return {"estimate": est, "low": np.maximum(est - t * se, 0.0), "high": est + t * se,
             "se": se, "cells": cells, "sigma2_stand": s2_b, "resamples": len(reps),
             "synthetic": synth, "stand_effect": fx["effect"], "plots_weight": gw,
+            "stand_test": stand_test(y - model.stats["fitted"], plot_stand),
             "joint": {"reps": reps, "factor": factor, "indep_var": indep, "t": t}}
 
 
@@ -481,6 +508,7 @@ def ratio_stands(field_v, lidar_v, stand_lidar_v, plot_stand, *, plot_noise=None
     return {"estimate": est, "low": np.maximum(est - t * se, 0), "high": est + t * se, "se": se,
             "ratio": float(R), "loo": loo, "sigma2_stand": s2_b, "synthetic": synth,
             "stand_effect": fx["effect"], "plots_weight": gw,
+            "stand_test": stand_test(f - R * d, plot_stand),
             "joint": {"reps": reps, "factor": n / max(n - 1, 1), "indep_var": fx["mse"],
                       "t": t},
             **{f"plot_{k}": v for k, v in fit_stats(f, R * d, loo, 1).items()}}

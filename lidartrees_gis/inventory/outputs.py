@@ -135,6 +135,7 @@ def build(area, plots, stands, meas, pm, plot_stand, res_aba, res_trees, spec, c
             "dap_height": res_trees["dap_height"],
             "volume_equation": {"b0": eq.b0, "b1": eq.b1, "b2": eq.b2, "source": eq.source},
             "ratio_field_to_detected": ts["ratio"], "sigma2_stand": ts["sigma2_stand"],
+            "stands_differ_test": ts.get("stand_test"),
             **{k[5:]: v for k, v in ts.items() if k.startswith("plot_")}}
         tops = res_trees["tops"]
         layers["tree_tops"] = tops
@@ -231,7 +232,8 @@ def _model_report(model, table, est) -> dict:
             **{k: round(float(s[k]), 4) for k in keep},
             "selection": {"criterion": "leave-one-out RMSE", "candidates": list(CANDIDATES),
                           "best_by_size": table},
-            "sigma2_stand": est["sigma2_stand"], "bootstrap_refits": est["resamples"]}
+            "sigma2_stand": est["sigma2_stand"], "bootstrap_refits": est["resamples"],
+            "stands_differ_test": est.get("stand_test")}
 
 
 def _draw(report, y, fit, loo):
