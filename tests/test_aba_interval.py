@@ -142,3 +142,25 @@ def test_no_stand_effect_leaves_the_model_alone():
         n += 6
     assert weighed <= 10, weighed
     assert held[True] / n >= held[False] / n - 0.02, (held[True] / n, held[False] / n)
+
+
+def test_five_plots_refit_the_chosen_model_when_few_resamples_can_choose():
+    """With 5 plots 4 resamples in 100 hold all five, which choosing a model again needs:
+    those few refits are the same plots and their spread near 0. The chosen model is refitted
+    on every resample instead, so the interval has the coefficients' uncertainty."""
+    rng = np.random.default_rng(5)
+    n = 5
+    h = rng.uniform(12, 30, n)
+    pm = {k: f * h + rng.normal(0, 0.4, n) for k, f in (("zq95", 1.0), ("zq75", 0.92),
+                                                        ("zq50", 0.85), ("zmean", 0.8),
+                                                        ("zmax", 1.06))}
+    pm.update(cover=rng.uniform(60, 90, n), pzabovezmean=rng.uniform(40, 60, n),
+              zsd=rng.uniform(3, 6, n), zL2=rng.uniform(2, 4, n))
+    y = 0.6 * h ** 2 * np.exp(rng.normal(0, 0.08, n))
+    model = select_model(pm, y)[0]
+    cells = {k: np.repeat(v, 20) + rng.normal(0, 0.3, 20 * n) for k, v in pm.items()}
+    cs = np.repeat(np.arange(n), 20)
+    est = aba_stands(model, pm, y, cells, cs, n, np.arange(n), resamples=400, seed=1)
+    assert est["resamples_chose"] < 50 and est["resamples"] > 300
+    half = (est["high"] - est["low"]) / 2 / est["estimate"]
+    assert (half > 0.03).all(), half

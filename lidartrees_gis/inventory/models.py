@@ -367,7 +367,8 @@ def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_
     uncertainty too (a model chosen on 8 plots is one of several nearly as good).
 
     Returns ``estimate``, ``low``, ``high``, ``se``, ``cells`` (per stand), ``sigma2_stand``,
-    ``resamples`` (the bootstrap refits that succeeded)."""
+    ``resamples`` (the bootstrap refits that succeeded), ``resamples_chose`` (those that chose
+    the model again: under half, the chosen model is refitted instead)."""
     y = np.asarray(y, float)
     n, p = y.size, len(model.predictors)
     Xc = model.design(cell_metrics)
@@ -392,27 +393,33 @@ def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_
             designs[key] = (m.design(plot_metrics), xc, np.isfinite(xc).all(axis=1))
         return designs[key]
 
-    reps = []
-    for _ in range(resamples):
-        idx = rng.integers(0, n, n)
+    def draws(reselect):
+        out = []
+        for _ in range(resamples):
+            rep = one(rng.integers(0, n, n), reselect)
+            if rep is not None:
+                out.append(rep)
+        return out
+
+    def one(idx, reselect):
         m = model
         if reselect:
             u = np.unique(idx)
             if u.size < MIN_PLOTS:
-                continue
+                return None
             try:
                 m = select_model({k: np.asarray(v)[u] for k, v in plot_metrics.items()},
                                  y[u], model.target)[0]
             except InputError:
-                continue
+                return None
         q = len(m.predictors)
         if np.unique(idx).size < q + 2:  # too few distinct plots to refit the model
-            continue
+            return None
         Xp, Xr, ok = design(m)
         yt = np.log(y) if m.form == "loglog" else y
         r = _ols(Xp[idx], yt[idx])
         if r is None:
-            continue
+            return None
         coef = r[0]
         s2 = float(np.sum((yt[idx] - r[1]) ** 2) / max(n - q - 1, 1))
         eta = Xr[ok] @ coef
@@ -425,7 +432,15 @@ def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_
                 fp = Xp @ coef
                 fp = np.exp(fp + s2 / 2) if m.form == "loglog" else fp
             rep = rep + gw * plot_means(y - fp, plot_stand, n_stands)[0]
-        reps.append(rep)
+        return rep
+
+    reps = draws(reselect)
+    chose = len(reps)
+    if reselect and len(reps) < resamples / 2:
+        # too few resamples hold the plots a choice needs (5 plots: 4 in 100): the refits
+        # left are the same few plots and their spread says nothing; the chosen model
+        # refitted on every resample instead (its choice's uncertainty is then not in it)
+        reps = draws(False)
     factor = n / max(n - p - 1, 1)
     v_boot = boot_variance(reps, n_stands) * factor
     s2_cells = float(np.mean(resid ** 2))
@@ -435,6 +450,7 @@ def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_
     t = t975(n - p - 1)
     return {"estimate": est, "low": np.maximum(est - t * se, 0.0), "high": est + t * se,
             "se": se, "cells": cells, "sigma2_stand": s2_b, "resamples": len(reps),
+            "resamples_chose": chose if reselect else 0,
             "synthetic": synth, "stand_effect": fx["effect"], "plots_weight": gw,
             "stand_test": stand_test(y - model.stats["fitted"], plot_stand),
             "joint": {"reps": reps, "factor": factor, "indep_var": indep, "t": t}}

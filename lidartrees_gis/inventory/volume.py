@@ -177,12 +177,12 @@ def _aba(pm, figures, cm, cell_stand, n_stands, plot_stand, options) -> dict:
                          resamples=options.resamples, seed=options.seed,
                          stand_effect=options.estimator == "eblup")
         if key == "volume":
-            if est["resamples"] < options.resamples / 2:
+            if est["resamples_chose"] < options.resamples / 2:
                 warnings.warn(DataWarning(
-                    f"PLOTS: {est['resamples']} of {options.resamples} resamples of the "
-                    f"{y.size} plots held enough distinct plots to choose and refit the model: "
-                    "the intervals rest on few refits; more plots make them steadier"),
-                    stacklevel=2)
+                    f"PLOTS: {est['resamples_chose']} of {options.resamples} resamples of the "
+                    f"{y.size} plots held enough distinct plots to choose the model again: the "
+                    "intervals refit the chosen model instead and leave out the uncertainty "
+                    "of its choice; more plots make them sound"), stacklevel=2)
             loo_r2 = model.stats.get("loo_r2", np.nan)
             if not loo_r2 >= MIN_LOO_R2:
                 warnings.warn(DataWarning(
