@@ -368,7 +368,8 @@ def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_
 
     Returns ``estimate``, ``low``, ``high``, ``se``, ``cells`` (per stand), ``sigma2_stand``,
     ``resamples`` (the bootstrap refits that succeeded), ``resamples_chose`` (those that chose
-    the model again: under half, the chosen model is refitted instead)."""
+    the model again: under half, the chosen model is refitted on every resample too and each
+    stand takes the wider of the two variances)."""
     y = np.asarray(y, float)
     n, p = y.size, len(model.predictors)
     Xc = model.design(cell_metrics)
@@ -436,13 +437,17 @@ def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_
 
     reps = draws(reselect)
     chose = len(reps)
-    if reselect and len(reps) < resamples / 2:
-        # too few resamples hold the plots a choice needs (5 plots: 4 in 100): the refits
-        # left are the same few plots and their spread says nothing; the chosen model
-        # refitted on every resample instead (its choice's uncertainty is then not in it)
-        reps = draws(False)
     factor = n / max(n - p - 1, 1)
     v_boot = boot_variance(reps, n_stands) * factor
+    if reselect and len(reps) < resamples / 2:
+        # few resamples hold the plots a choice needs (5 plots: 4 in 100), and those few are
+        # nearly the same plots: their spread may say nothing. The chosen model refitted on
+        # every resample too, and the wider of the two taken
+        fixed = draws(False)
+        v_fixed = boot_variance(fixed, n_stands) * factor
+        if not np.nansum(v_boot) >= np.nansum(v_fixed):
+            reps = fixed
+        v_boot = np.fmax(v_boot, v_fixed)
     s2_cells = float(np.mean(resid ** 2))
     with np.errstate(invalid="ignore", divide="ignore"):
         indep = fx["mse"] + s2_cells / np.maximum(cells, 1)

@@ -181,8 +181,9 @@ def _aba(pm, figures, cm, cell_stand, n_stands, plot_stand, options) -> dict:
                 warnings.warn(DataWarning(
                     f"PLOTS: {est['resamples_chose']} of {options.resamples} resamples of the "
                     f"{y.size} plots held enough distinct plots to choose the model again: the "
-                    "intervals refit the chosen model instead and leave out the uncertainty "
-                    "of its choice; more plots make them sound"), stacklevel=2)
+                    "intervals rest on few refits (or on the chosen model's, which leave out "
+                    "the uncertainty of its choice); more plots make them sound"),
+                    stacklevel=2)
             loo_r2 = model.stats.get("loo_r2", np.nan)
             if not loo_r2 >= MIN_LOO_R2:
                 warnings.warn(DataWarning(
