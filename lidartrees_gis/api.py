@@ -171,10 +171,9 @@ def _inventory_options(min_height, returns, dtm, drop_class, keep_class, a_srs, 
 
 def volume(input, plots, output=None, *, stands, trees_table=None, plot_id=None,
            plot_radius=None, stand_id=None, stand_csv=None, volume_equation=None,
-           approach="aba", res="auto", min_height=2.0, returns="all", dtm="auto", resamples=400, estimator="eblup",
-           drop_class=(7, 18),
-           keep_class=None, a_srs=None, t_srs=None, tile_size=None, workers=None,
-           overwrite=False, progress=None, **read_kw):
+           approach="aba", res="auto", min_height=2.0, returns="all", dtm="auto",
+           resamples=400, estimator="eblup", drop_class=(7, 18), keep_class=None, a_srs=None,
+           t_srs=None, tile_size=None, workers=None, overwrite=False, progress=None, **read_kw):
     """Wood volume per stand from points and field plots (``lidartrees volume``;
     docs/VOLUME.md).
 
