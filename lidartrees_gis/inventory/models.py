@@ -213,48 +213,52 @@ def between_variance(resid, stand, alpha: float | None = None) -> float:
     """Between-stand variance of plot residuals (one-way random effects, method of moments);
     0 when fewer than two stands hold two plots or more, or, with ``alpha``, when the
     one-way analysis of variance does not find the stands' means to differ at that level."""
+    a = _anova(resid, stand)
+    if a["stands_2plus"] < 2:
+        return 0.0
+    if alpha is not None and not (a["p"] is not None and a["p"] <= alpha):
+        return 0.0
+    return max(0.0, (a["msb"] - a["within"]) / a["n0"])
+
+
+def _anova(resid, stand) -> dict:
+    """The one-way analysis of variance of plot residuals by stand (plots outside the stands
+    or without a residual left out): ``stands_2plus`` (stands with two plots or more), the
+    mean squares ``within`` and between (``msb``), ``n0`` (the mean plots a stand of the
+    method of moments), and ``f``, ``p`` (None without two such stands or any spread
+    within)."""
     resid = np.asarray(resid, float)
     stand = np.asarray(stand)
     ok = (stand >= 0) & np.isfinite(resid)
     resid, stand = resid[ok], stand[ok]
     ids, inv, counts = np.unique(stand, return_inverse=True, return_counts=True)
-    if (counts >= 2).sum() < 2:
-        return 0.0
-    means = np.bincount(inv, weights=resid) / counts
-    within = float(np.sum((resid - means[inv]) ** 2) / max(resid.size - ids.size, 1))
-    n0 = (resid.size - np.sum(counts ** 2) / resid.size) / max(ids.size - 1, 1)
-    msb = float(np.sum(counts * (means - resid.mean()) ** 2) / max(ids.size - 1, 1))
-    if alpha is not None:
-        from scipy import stats
+    out = {"stands_2plus": int((counts >= 2).sum()), "f": None, "p": None}
+    if out["stands_2plus"] < 2:
+        return out
+    from scipy import stats
 
-        dof = resid.size - ids.size
-        if within <= 0 or stats.f.sf(msb / within, ids.size - 1, dof) > alpha:
-            return 0.0
-    return max(0.0, (msb - within) / n0)
+    means = np.bincount(inv, weights=resid) / counts
+    dof = resid.size - ids.size
+    out["within"] = float(np.sum((resid - means[inv]) ** 2) / max(dof, 1))
+    out["n0"] = (resid.size - np.sum(counts ** 2) / resid.size) / max(ids.size - 1, 1)
+    out["msb"] = float(np.sum(counts * (means - resid.mean()) ** 2) / max(ids.size - 1, 1))
+    if out["within"] > 0:
+        out["f"] = out["msb"] / out["within"]
+        out["p"] = float(stats.f.sf(out["f"], ids.size - 1, dof))
+    return out
 
 
 def stand_test(resid, stand) -> dict:
     """Why the stands' own plots do or do not correct them: the one-way analysis of variance
     of the plots' residuals by stand that :func:`between_variance` applies (``stands_2plus``:
     stands with two plots or more, ``f``, ``p``, ``alpha``, ``differ``)."""
-    resid, stand = np.asarray(resid, float), np.asarray(stand)
-    ok = (stand >= 0) & np.isfinite(resid)
-    resid, stand = resid[ok], stand[ok]
-    ids, inv, counts = np.unique(stand, return_inverse=True, return_counts=True)
-    out = {"stands_2plus": int((counts >= 2).sum()), "alpha": STAND_ALPHA, "f": None,
-           "p": None, "differ": False}
-    if out["stands_2plus"] < 2:
+    a = _anova(resid, stand)
+    out = {"stands_2plus": a["stands_2plus"], "alpha": STAND_ALPHA, "f": None, "p": None,
+           "differ": False}
+    if a["stands_2plus"] < 2:
         out["why"] = "fewer than two stands hold two plots: the stands cannot be told apart"
-        return out
-    from scipy import stats
-
-    means = np.bincount(inv, weights=resid) / counts
-    dof = resid.size - ids.size
-    within = float(np.sum((resid - means[inv]) ** 2) / max(dof, 1))
-    msb = float(np.sum(counts * (means - resid.mean()) ** 2) / max(ids.size - 1, 1))
-    if within > 0:
-        f = msb / within
-        out.update(f=round(f, 3), p=round(float(stats.f.sf(f, ids.size - 1, dof)), 4))
+    elif a["p"] is not None:
+        out.update(f=round(a["f"], 3), p=round(a["p"], 4))
         out["differ"] = out["p"] <= STAND_ALPHA
     return out
 

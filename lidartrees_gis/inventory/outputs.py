@@ -51,15 +51,9 @@ def _with_attributes(sdf, attributes, key="stand_id"):
         return sdf
     att = pd.DataFrame(list(attributes)) if not isinstance(attributes, pd.DataFrame) else \
         attributes.reset_index(drop=True)
-    taken = {c.lower() for c in sdf.columns} | {"fid", "geom", "geometry"}
-    names = {}
-    for c in att.columns:
-        n = str(c)
-        while n.lower() in taken:
-            n += "_input"
-        taken.add(n.lower())
-        names[c] = n
-    att = att.rename(columns=names)
+    from ..plantation.stands import free_names
+
+    att = att.rename(columns=free_names(att.columns, sdf.columns))
     return pd.concat([sdf[[key]], att, sdf.drop(columns=key)], axis=1)
 
 

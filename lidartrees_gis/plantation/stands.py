@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import DataWarning, InputError
+from ..errors import DataWarning, InputError, listing
 from ..io.names import plain
 from .stocking import STOCK_COUNTS
 
@@ -253,22 +253,29 @@ def _warn_shared_ids(frame, ids, name) -> None:
     if odd:
         warnings.warn(DataWarning(
             f"-stands: {name}: features sharing an id differ in their attributes, joined as one "
-            f"stand each: {', '.join(odd[:8])}{' ...' if len(odd) > 8 else ''}; give each "
-            "stand its own id"), stacklevel=3)
+            f"stand each: {listing(odd, 8)}; give each stand its own id"), stacklevel=3)
 
 
-def user_attributes(frame) -> list:
-    """Each row of ``frame`` (the stands' fields, no geometry) as a dict of plain values under
-    the field's own name; a name the stands layer gives one of its figures (compared without
-    case, as GeoPackage columns are) gets ``_input`` (``area_ha`` -> ``area_ha_input``)."""
-    taken = {f.lower() for f in FIELD_DOCS} | {"fid", "geom", "geometry"}
+def free_names(columns, taken) -> dict:
+    """``{column: name}``: each of a user's ``columns`` under its own name, or with ``_input``
+    added while a layer's own field (``taken``, compared without case, as GeoPackage columns
+    are) or an earlier column holds it (``area_ha`` -> ``area_ha_input``)."""
+    taken = {str(t).lower() for t in taken} | {"fid", "geom", "geometry"}
     names = {}
-    for c in frame.columns:
+    for c in columns:
         n = str(c)
         while n.lower() in taken:
             n += "_input"
         taken.add(n.lower())
         names[c] = n
+    return names
+
+
+def user_attributes(frame) -> list:
+    """Each row of ``frame`` (the stands' fields, no geometry) as a dict of plain values under
+    the field's own name; a name the stands layer gives one of its figures gets ``_input``
+    (:func:`free_names`)."""
+    names = free_names(frame.columns, FIELD_DOCS)
     return [{names[c]: _plain_value(v) for c, v in zip(frame.columns, row)}
             for row in frame.itertuples(index=False, name=None)]
 
