@@ -109,6 +109,25 @@ def test_crown_scale_grows_with_the_crowns():
     assert np.isnan(crown_scale(np.zeros((50, 50)), 0.25))
 
 
+def test_crown_scale_leaves_roads_and_clearings_out():
+    """Stands of 1.2 m crowns 2 m apart cut by 8 m roads every 60 m and a 40 x 40 m clearing:
+    the roads' edges no longer set the scale (they made it 3-4 times the crowns'), and a gap
+    of one missing tree (4 m², under 500 m²) is still part of the canopy."""
+    res, n = 0.25, 1200
+    yy, xx = np.mgrid[0:n, 0:n] * res
+    ty, tx = (np.floor(yy / 2.0) + 0.5) * 2.0, (np.floor(xx / 2.0) + 0.5) * 2.0
+    chm = np.clip(20 - 10 * (np.hypot(yy - ty, xx - tx) / 1.2) ** 2, 2, None)
+    chm += np.random.default_rng(5).normal(0, 0.3, chm.shape)
+    inside = crown_scale(chm, res)
+    roads = chm.copy()
+    roads[(yy % 60.0) < 8.0] = 0.1
+    roads[(xx % 60.0) < 8.0] = 0.1
+    roads[(yy > 150) & (yy < 190) & (xx > 150) & (xx < 190)] = 0.1
+    kept = crown_scale(roads, res, open_area=np.inf)
+    assert kept > 2.0 * inside, (kept, inside)
+    assert abs(crown_scale(roads, res) / inside - 1) < 0.15, (crown_scale(roads, res), inside)
+
+
 def test_surfaces_do_not_depend_on_the_order_of_the_points(tmp_path):
     """Ground returns on a 1 cm lattice often tie in height within a cell; the DTM (and so the
     CHM) once took whichever came first in the file (bcts_1 shuffled: 796 CHM cells up to 3.2 m

@@ -294,14 +294,17 @@ def _half_correlation_distance(a: np.ndarray, res: float, level: float = 0.5,
 
 
 def crown_scale(chm, res: float, *, highpass: float = 10.0, window: float = 150.0,
-                min_height: float = 2.0) -> float:
+                min_height: float = 2.0, open_area: float = 500.0) -> float:
     """Crown scale of a stand (m): the distance at which the autocorrelation of the canopy
     heights falls to one half.
 
     Heights vary over about one crown: narrow, steep crowns (a 3 x 2 m eucalyptus stand) give
     about 0.6 m, broad conifer crowns 2-3 m. Variations larger than ``highpass`` metres (stand
-    edges, roads, terrain left in the CHM) are removed first (Gaussian high-pass). Large grids
-    are measured on up to nine ``window``-metre windows (the median is returned).
+    edges, roads, terrain left in the CHM) are removed first (Gaussian high-pass). Open areas
+    (connected cells below ``min_height``) larger than ``open_area`` m² -- roads, firebreaks,
+    clearings between stands -- are left out as nodata: their edges would otherwise set the
+    scale (a farm's roads made 3 m of 0.8 m crowns). Large grids are measured on up to nine
+    ``window``-metre windows (the median is returned).
 
     Parameters
     ----------
@@ -309,6 +312,8 @@ def crown_scale(chm, res: float, *, highpass: float = 10.0, window: float = 150.
         NaN = nodata.
     res : float
         Cell size (m).
+    open_area : float
+        Open areas larger than this (m²) are left out; ``inf`` keeps them.
 
     Returns
     -------
@@ -319,6 +324,12 @@ def crown_scale(chm, res: float, *, highpass: float = 10.0, window: float = 150.
     valid = np.isfinite(a)
     if (valid & (a >= min_height)).sum() < 25:
         return float("nan")
+    if np.isfinite(open_area):
+        lab, n = ndimage.label(valid & (a < min_height))
+        if n:
+            big = np.bincount(lab.ravel()) * res * res > open_area
+            big[0] = False
+            valid &= ~big[lab]
     fill = np.where(valid, a, np.nanmedian(a[valid]))
     hp = fill - ndimage.gaussian_filter(fill, highpass / res, mode="nearest")
     hp[~valid] = 0.0
