@@ -39,7 +39,7 @@ def test_cli_both_approaches(farm, tmp_path, capsys):
     out = tmp_path / "vol.gpkg"
     capsys.readouterr()
     assert main(_args(d, out, "-volume_equation", EQ, "-approach", "both",
-                      "-resamples", "200")) == 0
+                      "-resamples", "200", "-stand_csv", str(tmp_path / "both.csv"))) == 0
     text = capsys.readouterr().out.splitlines()
     printed = [ln for ln in text if ln.startswith("stand T")]
     total = [ln for ln in text if ln.startswith("total: ")]
@@ -96,6 +96,15 @@ def test_cli_both_approaches(farm, tmp_path, capsys):
     assert main(a) == 0
     s2 = gpd.read_file(out2, layer="stands")
     t = pd.read_csv(csv, sep=";", decimal=",", dtype={"stand_id": str}, encoding="utf-8-sig")
+    # the last row the farm's total with its interval, as the report has it
+    trow, t = t.iloc[-1], t.iloc[:-1]
+    rep2 = json.loads((tmp_path / "model_report.json").read_text())
+    assert trow["stand_id"] == "total" and trow["area_ha"] == pytest.approx(
+        s2["area_ha"].sum(), abs=1e-3) and trow["n_plots"] == s2["n_plots"].sum()
+    for end in ("", "_low", "_high"):
+        assert trow[f"volume_m3{end}"] == pytest.approx(rep2[f"total_m3{end}"], abs=0.06)
+        assert trow[f"volume_m3_ha{end}"] == pytest.approx(
+            rep2[f"total_m3{end}"] / s2["area_ha"].sum(), rel=1e-3)
     assert list(t["stand_id"]) == list(s2["stand_id"]) and "talhao" in t.columns
     for f in ("volume_m3_ha", "volume_m3_ha_low", "volume_m3_ha_high", "volume_m3",
               "basal_area_m2_ha", "n_plots"):
@@ -129,13 +138,28 @@ def test_cli_both_approaches(farm, tmp_path, capsys):
         assert test["differ"] == (test["p"] <= 0.05)
         if not test["differ"]:
             assert (stands[f"{pre}_plots_weight"] == 0).all(), pre
+    both = pd.read_csv(tmp_path / "both.csv", dtype={"stand_id": str}).iloc[-1]
+    for pre, part in (("volume", rep), ("volume_trees", rep["tree_approach"])):
+        assert both["stand_id"] == "total" and both[f"{pre}_m3_high"] == pytest.approx(
+            part["total_m3_high"], abs=0.06), pre
     assert rep["inputs"]["points"] == str(d / "farm.laz") and rep["tool"].startswith(
         "lidartrees_gis ") and rep["created"][:2] == "20"
     assert list(plots.columns[:3]) == ["plot_id", "parcela", "stand_id"]  # the crew's fields
     m = rep["volume_model"]
     assert m["plots"] == 9 and 1 <= len(m["predictors"]) <= 2 and m["loo_rmse_pct"] < 15
     assert rep["field"]["heights_estimated"] > 0 and rep["field"]["hypsometric"]["trees"] > 0
-    assert (tmp_path / "vol_report.png").stat().st_size > 10000
+    # the whole procedure's leave-one-out, the choice redone without each plot, from the plots
+    from lidartrees_gis.inventory.models import CANDIDATES, nested_loo
+
+    y = plots["volume_m3_ha"].to_numpy(float)
+    e = y - np.maximum(nested_loo({k: plots[k].to_numpy(float) for k in CANDIDATES}, y), 0)
+    assert m["procedure_loo_rmse_pct"] == pytest.approx(
+        100 * np.sqrt(np.mean(e ** 2)) / y.mean(), abs=0.01)
+    # the model beside every stand's figure and interval, both methods
+    from PIL import Image
+
+    with Image.open(tmp_path / "vol_report.png") as im:
+        assert im.size[0] == 2 * 600 and im.size[1] >= 600
     import sqlite3
 
     con = sqlite3.connect(out)

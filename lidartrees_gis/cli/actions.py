@@ -261,7 +261,8 @@ def volume(input, plots, output, **kw):
         if key in rep:
             m = rep[key]
             out[key] = f"{m['equation']} (R² {m['r2']:.3f}, RMSE {m['rmse_pct']:.1f} %, LOO " \
-                       f"RMSE {m['loo_rmse_pct']:.1f} %)"
+                       f"RMSE {m['loo_rmse_pct']:.1f} %, {m['procedure_loo_rmse_pct']:.1f} % " \
+                       "with the choice redone)"
     if "total_m3" in rep:
         from ..inventory.outputs import total_line
 

@@ -1,5 +1,6 @@
 """What the ``volume`` command writes: the plots, stands and tree layers, the volume raster
-(m³/ha per cell), and the model report (JSON, and a PNG of measured against predicted)."""
+(m³/ha per cell), and the model report (JSON, and a PNG of the plots' measured against
+predicted volume beside each stand's figure and interval)."""
 from __future__ import annotations
 
 import json
@@ -80,8 +81,10 @@ def build(area, plots, stands, meas, pm, plot_stand, res_aba, res_trees, spec, c
                           "times its weight (stand-level EBLUP: between-stand variance / "
                           "(between-stand variance + the mean residual's variance))",
               "interval": "95 %: estimate ± t(0.975, n-p-1)·sqrt(bootstrap variance over the "
-                          "plots (model refitted) + the corrected stand's departure variance "
-                          "+ residual variance / cells)"}
+                          "plots (model chosen again and refitted) + the corrected stand's "
+                          "departure variance + residual variance / cells), the departure "
+                          "and residual from each plot predicted by the model chosen and "
+                          "fitted without it"}
     if meas["trees"] is not None:
         t = meas["trees"]
         eq = t["equation"]
@@ -226,30 +229,98 @@ def _model_report(model, table, est) -> dict:
             **{k: round(float(s[k]), 4) for k in keep},
             "selection": {"criterion": "leave-one-out RMSE", "candidates": list(CANDIDATES),
                           "best_by_size": table},
+            "procedure_loo_rmse_pct": round(float(est.get("procedure_loo_rmse_pct",
+                                                          s["loo_rmse_pct"])), 4),
             "sigma2_stand": est["sigma2_stand"], "bootstrap_refits": est["resamples"],
             "stands_differ_test": est.get("stand_test")}
 
 
-def _draw(report, y, fit, loo):
-    m = report["volume_model"]
+def _draw(report, y, fit, loo, trees_loo=None):
+    """The measured plots against the model's fitted and leave-one-out predictions (and the
+    tree method's leave-one-out figures)."""
+    m = report.get("volume_model")
 
     def draw(ax):
-        lo, hi = 0.0, float(max(np.max(y), np.max(fit), np.max(loo))) * 1.08
+        pts = [np.asarray(v, float) for v in (y, fit, loo, trees_loo) if v is not None]
+        lo, hi = 0.0, float(max(np.nanmax(v) for v in pts)) * 1.08
         ax.plot([lo, hi], [lo, hi], color="0.5", lw=1, label="1:1")
-        ax.scatter(y, fit, s=28, color="tab:green", label="fitted")
-        ax.scatter(y, loo, s=18, facecolors="none", edgecolors="tab:red",
-                   label="leave-one-out")
+        if m is not None:
+            ax.scatter(y, fit, s=28, color="tab:green", label="area-based, fitted")
+            ax.scatter(y, loo, s=18, facecolors="none", edgecolors="tab:red",
+                       label="area-based, leave-one-out")
+        if trees_loo is not None:
+            ax.scatter(y, trees_loo, s=22, marker="^", color="tab:blue",
+                       label="tree method, leave-one-out")
         ax.set_xlim(lo, hi), ax.set_ylim(lo, hi)
         ax.set_xlabel("measured volume (m³/ha)")
         ax.set_ylabel("predicted volume (m³/ha)")
-        ax.set_title(f"{m['form']}: {', '.join(m['predictors'])} ({m['plots']} plots)",
-                     fontsize=9)
-        ax.text(0.03, 0.97, f"R² {m['r2']:.3f} (adj. {m['adj_r2']:.3f})\n"
-                f"RMSE {m['rmse_pct']:.1f} %  bias {m['bias_pct']:+.2f} %\n"
-                f"LOO RMSE {m['loo_rmse_pct']:.1f} %  LOO R² {m['loo_r2']:.3f}",
-                transform=ax.transAxes, va="top", fontsize=9)
+        if m is not None:
+            ax.set_title(f"{m['form']}: {', '.join(m['predictors'])} ({m['plots']} plots)",
+                         fontsize=9)
+            ax.text(0.03, 0.97, f"R² {m['r2']:.3f} (adj. {m['adj_r2']:.3f})\n"
+                    f"RMSE {m['rmse_pct']:.1f} %  bias {m['bias_pct']:+.2f} %\n"
+                    f"LOO RMSE {m['loo_rmse_pct']:.1f} %  LOO R² {m['loo_r2']:.3f}\n"
+                    f"LOO RMSE, choice included {m['procedure_loo_rmse_pct']:.1f} %",
+                    transform=ax.transAxes, va="top", fontsize=9)
+        else:
+            t = report.get("tree_approach", {})
+            ax.set_title(f"tree method ({report['plots']} plots)", fontsize=9)
+            if t.get("loo_rmse_pct") is not None:
+                ax.text(0.03, 0.97, f"LOO RMSE {t['loo_rmse_pct']:.1f} %",
+                        transform=ax.transAxes, va="top", fontsize=9)
         ax.legend(loc="lower right", fontsize=8)
     return draw
+
+
+def _draw_stands(stands):
+    """Each stand's m³/ha and its 95 % interval, area-based and tree method side by side."""
+    keys = [(p, lab, c) for p, lab, c in (("volume", "area-based", "tab:red"),
+                                          ("volume_trees", "tree method", "tab:blue"))
+            if f"{p}_m3_ha" in stands.columns]
+    names = [str(s) for s in stands["stand_id"]]
+    n = len(names)
+
+    def draw(ax):
+        pos = np.arange(n)
+        off = np.linspace(-0.15, 0.15, len(keys)) if len(keys) > 1 else [0.0]
+        for (p, lab, c), d in zip(keys, off):
+            v = stands[f"{p}_m3_ha"].to_numpy(float)
+            lo = stands[f"{p}_m3_ha_low"].to_numpy(float)
+            hi = stands[f"{p}_m3_ha_high"].to_numpy(float)
+            ok = np.isfinite(v)
+            if len(keys) == 1:
+                lab = "estimate and 95 % interval"
+            ax.errorbar(v[ok], pos[ok] + d, xerr=[v[ok] - lo[ok], hi[ok] - v[ok]], fmt="o",
+                        ms=4, color=c, capsize=2, lw=1, label=lab)
+        ax.set_yticks(pos)
+        ax.set_yticklabels(names, fontsize=max(5, min(9, int(400 / max(n, 1)))))
+        ax.set_ylim(n - 0.5, -0.5)
+        ax.set_xlim(left=0)
+        ax.set_xlabel("volume (m³/ha), 95 % interval")
+        ax.set_title(f"stands ({n})", fontsize=9)
+        ax.grid(axis="x", color="0.9")
+        ax.legend(loc="lower right", fontsize=8)
+    return draw
+
+
+def _total_row(stands, report) -> dict:
+    """The table's last row, ``stand_id`` ``total``: the stands with a figure, their area, plots
+    and total m³ with its 95 % interval (:func:`models.total_interval`, not the sum of the
+    stands' ends), and the m³/ha those make over that area."""
+    left = set(report.get("total_left_out", []))
+    keep = ~stands["stand_id"].astype(str).isin(left).to_numpy()
+    area = float(stands["area_ha"].to_numpy(float)[keep].sum())
+    row = {"stand_id": "total", "area_ha": round(area, 4),
+           "n_plots": int(stands["n_plots"].sum())}
+    pre = "volume_trees" if "volume_trees_m3" in stands.columns else "volume"
+    for prefix, part in (("volume", report), (pre, report.get("tree_approach"))):
+        if part is None or "total_m3" not in part or f"{prefix}_m3" not in stands.columns:
+            continue
+        for end in ("", "_low", "_high"):
+            v = float(part[f"total_m3{end}"])
+            row[f"{prefix}_m3{end}"] = round(v, 1)
+            row[f"{prefix}_m3_ha{end}"] = round(v / area, 3) if area > 0 else None
+    return row
 
 
 def write(output, side, layers, report, spec, vol_grid, res_aba, out, input, area,
@@ -276,16 +347,23 @@ def write(output, side, layers, report, spec, vol_grid, res_aba, out, input, are
         with atomic_output(side["json"], out.overwrite, param="report") as tmp:
             tmp.write_text(json.dumps(report, indent=1, default=float), encoding="utf-8")
         done["json"] = side["json"]
-        if "volume" in res_aba:
-            model = res_aba["volume"][0]
-            y = layers["plots"]["volume_m3_ha"].to_numpy(float)
-            plot_png(side["png"], _draw(report, y, model.stats["fitted"], model.stats["loo"]),
-                     overwrite=out.overwrite)
+        pl = layers["plots"]
+        if "volume" in res_aba or "trees_loo_predicted_m3_ha" in pl.columns:
+            model = res_aba["volume"][0] if "volume" in res_aba else None
+            y = pl["volume_m3_ha"].to_numpy(float)
+            tl = pl["trees_loo_predicted_m3_ha"].to_numpy(float) \
+                if "trees_loo_predicted_m3_ha" in pl.columns else None
+            fit = _draw(report, y, None if model is None else model.stats["fitted"],
+                        None if model is None else model.stats["loo"], tl)
+            n = len(layers["stands"])
+            plot_png(side["png"], [fit, _draw_stands(layers["stands"])], widths=[1, 1],
+                     size=(12, max(6.0, min(40.0, 1.0 + 0.22 * n))), overwrite=out.overwrite)
             done["png"] = side["png"]
         if stand_csv is not None:
             from ..io.tables import write_table
 
             rows = layers["stands"].drop(columns="geometry").to_dict("records")
+            rows.append(_total_row(layers["stands"], report))
             with atomic_output(stand_csv, out.overwrite, param="-stand_csv") as tmp:
                 write_table(tmp, rows, text=("stand_id",), options=out.table, name="stands")
             done["stand_csv"] = stand_csv

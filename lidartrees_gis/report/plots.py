@@ -6,7 +6,9 @@ import numpy as np
 
 
 # terrestrial scans (seeds 002 and 004)
-def plot_png(path, draw, *, size=(6, 6), overwrite=False):
+def plot_png(path, draw, *, size=(6, 6), overwrite=False, widths=None):
+    """A PNG of one axis drawn by ``draw(ax)``, or of several side by side (``draw`` a list,
+    ``widths`` their relative widths)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -14,8 +16,11 @@ def plot_png(path, draw, *, size=(6, 6), overwrite=False):
 
     from ..io.output import atomic_output
 
-    fig, ax = plt.subplots(figsize=size, dpi=100)
-    draw(ax)
+    draws = list(draw) if isinstance(draw, (list, tuple)) else [draw]
+    fig, axes = plt.subplots(1, len(draws), figsize=size, dpi=100, squeeze=False,
+                             gridspec_kw={"width_ratios": widths} if widths else None)
+    for d, ax in zip(draws, axes[0]):
+        d(ax)
     fig.tight_layout()
     with atomic_output(path, overwrite, param="PNG") as tmp:
         fig.savefig(tmp, format="png")

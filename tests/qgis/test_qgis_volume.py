@@ -58,7 +58,8 @@ def test_volume_layers_and_bad_input(qgis_app, tmp_path):
     assert r["JSON"] == str(tmp_path / "v_report.json") and Path(r["JSON"]).exists()
     assert r["PNG"] == str(tmp_path / "v_report.png") and Path(r["PNG"]).exists()
     assert r["STAND_CSV"] == str(tmp_path / "talhoes.csv")
-    assert len((tmp_path / "talhoes.csv").read_text(encoding="utf-8-sig").splitlines()) == 7
+    lines = (tmp_path / "talhoes.csv").read_text(encoding="utf-8-sig").splitlines()
+    assert len(lines) == 8 and lines[-1].split(lines[0][len("stand_id")])[0] == '"total"'
     # run and loaded as from the toolbox, both approaches: the stands, the plots (styled:
     # outlined and labelled) and the trees join the project
     import processing
