@@ -14,8 +14,9 @@ command's estimators run on that draw's plots (``models.select_model`` / ``aba_s
 area-based approach, ``fit_dap_height`` / ``ratio_stands`` for the tree approach). Per
 configuration: stand volume error % against the truth (mean, mean |error|, max |error|, share of
 stands within ±5 %), the 95 % intervals' coverage of the true stand volume over stands x draws,
-their mean half-width %, the plots' leave-one-out relative RMSE, and the same for the farm's
-total m³ (``models.total_interval``: error %, coverage over draws, half-width %).
+their mean half-width %, the plots' leave-one-out RMSE (the chosen model's and, with the
+choice redone without each plot, the procedure's), and the same for the farm's total m³
+(``models.total_interval``: error %, coverage over draws, half-width %).
 
 Usage: python benchmarks/bench_volume.py [--configs 0 1 ...] [--densities 8 4] [--draws 20]
 Results are merged into benchmarks/results/volume.json (one key per configuration and density),
@@ -136,7 +137,7 @@ def run_config(name, p, density, draws, resamples):
     sid = stand_zones.members(tx, ty)
     area_m2 = np.pi * RADIUS ** 2
     aba, trees, loo = {"est": [], "low": [], "high": []}, {"est": [], "low": [], "high": []}, []
-    loo_trees, chosen = [], {}
+    loo_trees, loo_proc, chosen = [], [], {}
     totals = {"aba": [], "trees": []}  # (total, low, high) of each draw
     for k, ((x, y, _), z, pm) in enumerate(zip(plot_sets, zones, r["zones"])):
         rows = plot_trees(truth, x, y, RADIUS, ht_share=0.4, seed=k)
@@ -159,6 +160,7 @@ def run_config(name, p, density, draws, resamples):
         t = total_interval(e, st.area_ha)
         totals["aba"].append((t["total"], t["low"], t["high"]))
         loo.append(model.stats["loo_rmse_pct"])
+        loo_proc.append(e["procedure_loo_rmse_pct"])
         # tree approach
         measured = ~ft["ht_estimated"]
         a_, b_, s2, _ = fit_dap_height(ft["dap"][measured], ft["ht"][measured])
@@ -183,7 +185,10 @@ def run_config(name, p, density, draws, resamples):
            "aba": {**_summary(np.array(aba["est"]), np.array(aba["low"]),
                               np.array(aba["high"]), tv),
                    "loo_rmse_pct_mean": round(float(np.mean(loo)), 2),
-                   "loo_rmse_pct_max": round(float(np.max(loo)), 2), "models_chosen": chosen,
+                   "loo_rmse_pct_max": round(float(np.max(loo)), 2),
+                   "procedure_loo_rmse_pct_mean": round(float(np.mean(loo_proc)), 2),
+                   "procedure_loo_rmse_pct_max": round(float(np.max(loo_proc)), 2),
+                   "models_chosen": chosen,
                    "total": _total_summary(totals["aba"], true_total)},
            "trees": {**_summary(np.array(trees["est"]), np.array(trees["low"]),
                                 np.array(trees["high"]), tv),
@@ -224,6 +229,8 @@ def main(argv=None):
             "aba_coverage_95": round(float(np.mean([r["aba"]["coverage_95"] for r in rs])), 3),
             "aba_loo_rmse_pct_mean": round(float(np.mean([r["aba"]["loo_rmse_pct_mean"]
                                                           for r in rs])), 2),
+            "aba_procedure_loo_rmse_pct_mean": round(float(np.mean(
+                [r["aba"].get("procedure_loo_rmse_pct_mean", np.nan) for r in rs])), 2),
             "trees_within_5pct": round(float(np.mean([r["trees"]["within_5pct"] for r in rs])),
                                        3),
             "trees_coverage_95": round(float(np.mean([r["trees"]["coverage_95"] for r in rs])),

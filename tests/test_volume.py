@@ -147,6 +147,7 @@ def test_cli_both_approaches(farm, tmp_path, capsys):
     assert list(plots.columns[:3]) == ["plot_id", "parcela", "stand_id"]  # the crew's fields
     m = rep["volume_model"]
     assert m["plots"] == 9 and 1 <= len(m["predictors"]) <= 2 and m["loo_rmse_pct"] < 15
+    assert m["departures"] == ("relative" if m["form"] == "loglog" else "m³/ha")
     assert rep["field"]["heights_estimated"] > 0 and rep["field"]["hypsometric"]["trees"] > 0
     # the whole procedure's leave-one-out, the choice redone without each plot, from the plots
     from lidartrees_gis.inventory.models import CANDIDATES, nested_loo
@@ -335,6 +336,19 @@ def test_warnings_extra_table_plots_and_overlaps(farm, tmp_path):
                          trees_table=d / "arvores.csv", **kw)
     a, b = r["layers"]["plots"], base["layers"]["plots"]
     assert np.allclose(a["n_trees"], b["n_trees"]) and len(a) == len(b) == 9
+    # a radius of half the plots' (5.64 m for 400 m² plots): the table's trees fill a quarter
+    # of the area, four times the trees detected there; said, with the tree method's data
+    kw["plot_radius"] = 5.64
+    for approach, said_it in (("both", True), ("aba", False)):
+        with warnings.catch_warnings(record=True) as rec:
+            warnings.simplefilter("always")
+            lt.volume(d / "farm.laz", d / "plots.gpkg", trees_table=d / "arvores.csv",
+                      approach=approach, **kw)
+        said = [str(w.message) for w in rec if "check -plot_radius" in str(w.message)]
+        assert len(said) == int(said_it), said
+        if said_it:
+            ratio = float(said[0].split(" are ")[1].split(" times")[0])
+            assert 3.0 < ratio < 5.5 and "(median of 9 plots; 100 m² a plot)" in said[0]
 
 
 def test_a_model_that_predicts_its_plots_poorly_is_said(recwarn):

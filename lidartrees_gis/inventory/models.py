@@ -404,7 +404,11 @@ def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_
     :func:`nested_loo` (with ``reselect``): the chosen model's own leave-one-out residuals
     understate its error.
 
-    Returns ``estimate``, ``low``, ``high``, ``se``, ``cells`` (per stand), ``sigma2_stand``,
+    With a ``loglog`` model the departures and residuals are taken in proportion to the
+    model's figure (its errors are), with a ``linear`` one in the figure's unit.
+
+    Returns ``estimate``, ``low``, ``high``, ``se``, ``cells`` (per stand), ``sigma2_stand``
+    (in the unit ``departures`` says: ``relative`` (a share, squared) or the figure's),
     ``procedure_loo_rmse_pct`` (the RMSE of those residuals, % of the plots' mean),
     ``resamples`` (the bootstrap refits that succeeded), ``resamples_chose`` (those that chose
     the model again: under half, the chosen model is refitted on every resample too and each
@@ -422,11 +426,21 @@ def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_
         nested = y - np.maximum(nested_loo(plot_metrics, y, model.target), 0.0)
         resid = np.where(np.isfinite(nested), nested, resid)
     procedure_rmse = 100 * float(np.sqrt(np.mean(resid ** 2)) / np.mean(y))
-    s2_b = stand_variance(resid, plot_stand, plot_noise)
-    fx = _stand_correction(y - model.stats["fitted"], plot_stand, n_stands, s2_b, plot_noise,
-                           stand_effect)
+    # a loglog model's errors are in proportion to its figure (ln Y = ... + e), and so are
+    # the departures and residuals taken here: a stand of 100 m³/ha does not take the error
+    # of one of 500. A linear model's are in m³/ha
+    rel = model.form == "loglog"
+    floor = 1e-3 * float(np.mean(y))
+    scale = np.maximum(model.stats["fitted"], floor) if rel else np.ones(n)
+    sscale = synth if rel else np.ones(n_stands)
+    resid = resid / scale
+    noise = None if plot_noise is None else np.asarray(plot_noise, float) / scale ** 2
+    fres = (y - model.stats["fitted"]) / scale
+    s2_b = stand_variance(resid, plot_stand, noise)
+    fx = _stand_correction(fres, plot_stand, n_stands, s2_b, noise, stand_effect)
     gw = fx["weight"]
-    est = np.maximum(synth + fx["effect"], 0.0)
+    effect = fx["effect"] * sscale
+    est = np.maximum(synth + effect, 0.0)
     rng = np.random.default_rng(seed)
     designs = {}
 
@@ -475,7 +489,11 @@ def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_
             with np.errstate(over="ignore"):
                 fp = Xp @ coef
                 fp = np.exp(fp + s2 / 2) if m.form == "loglog" else fp
-            rep = rep + gw * plot_means(y - fp, plot_stand, n_stands)[0]
+            if rel:
+                fp = np.maximum(fp, floor)
+                rep = rep * (1 + gw * plot_means((y - fp) / fp, plot_stand, n_stands)[0])
+            else:
+                rep = rep + gw * plot_means(y - fp, plot_stand, n_stands)[0]
         return rep
 
     reps = draws(reselect)
@@ -493,14 +511,15 @@ def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_
         v_boot = np.fmax(v_boot, v_fixed)
     s2_cells = float(np.mean(resid ** 2))
     with np.errstate(invalid="ignore", divide="ignore"):
-        indep = fx["mse"] + s2_cells / np.maximum(cells, 1)
+        indep = (fx["mse"] + s2_cells / np.maximum(cells, 1)) * sscale ** 2
     se = np.sqrt(v_boot + indep)
     t = t975(n - p - 1)
     return {"estimate": est, "low": np.maximum(est - t * se, 0.0), "high": est + t * se,
-            "se": se, "cells": cells, "sigma2_stand": s2_b, "resamples": len(reps),
+            "se": se, "cells": cells, "sigma2_stand": s2_b,
+            "departures": "relative" if rel else "m³/ha", "resamples": len(reps),
             "resamples_chose": chose if reselect else 0, "procedure_loo_rmse_pct": procedure_rmse,
-            "synthetic": synth, "stand_effect": fx["effect"], "plots_weight": gw,
-            "stand_test": stand_test(y - model.stats["fitted"], plot_stand),
+            "synthetic": synth, "stand_effect": effect, "plots_weight": gw,
+            "stand_test": stand_test(fres, plot_stand),
             "joint": {"reps": reps, "factor": factor, "indep_var": indep, "t": t}}
 
 

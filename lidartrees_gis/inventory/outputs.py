@@ -231,7 +231,8 @@ def _model_report(model, table, est) -> dict:
                           "best_by_size": table},
             "procedure_loo_rmse_pct": round(float(est.get("procedure_loo_rmse_pct",
                                                           s["loo_rmse_pct"])), 4),
-            "sigma2_stand": est["sigma2_stand"], "bootstrap_refits": est["resamples"],
+            "sigma2_stand": est["sigma2_stand"], "departures": est.get("departures"),
+            "bootstrap_refits": est["resamples"],
             "stands_differ_test": est.get("stand_test")}
 
 
@@ -258,9 +259,10 @@ def _draw(report, y, fit, loo, trees_loo=None):
             ax.set_title(f"{m['form']}: {', '.join(m['predictors'])} ({m['plots']} plots)",
                          fontsize=9)
             ax.text(0.03, 0.97, f"R² {m['r2']:.3f} (adj. {m['adj_r2']:.3f})\n"
-                    f"RMSE {m['rmse_pct']:.1f} %  bias {m['bias_pct']:+.2f} %\n"
-                    f"LOO RMSE {m['loo_rmse_pct']:.1f} %  LOO R² {m['loo_r2']:.3f}\n"
-                    f"LOO RMSE, choice included {m['procedure_loo_rmse_pct']:.1f} %",
+                    f"RMSE {m['rmse_pct']:.1f} %  bias {round(m['bias_pct'], 2) + 0.0:+.2f} %\n"
+                    f"LOO R² {m['loo_r2']:.3f}\n"
+                    f"LOO RMSE {m['loo_rmse_pct']:.1f} %, {m['procedure_loo_rmse_pct']:.1f} % "
+                    "with the choice redone",
                     transform=ax.transAxes, va="top", fontsize=9)
         else:
             t = report.get("tree_approach", {})

@@ -195,6 +195,24 @@ def _aba(pm, figures, cm, cell_stand, n_stands, plot_stand, options) -> dict:
     return out
 
 
+def _warn_density(table_ha, detected_ha, plots) -> None:
+    """Warn when the plots' trees per ha by the table are under half or over twice the trees
+    detected in them (median over the plots): the plots' area (``-plot_radius``) is wrong, as
+    a radius of 5.64 m given for 400 m² plots makes every figure four times too large."""
+    if table_ha is None:
+        return
+    t, d = np.asarray(table_ha, float), np.asarray(detected_ha, float)
+    ok = np.isfinite(t) & np.isfinite(d) & (d > 0) & (t > 0)
+    if ok.sum() < 3:
+        return
+    ratio = float(np.median(t[ok] / d[ok]))
+    if not 0.5 <= ratio <= 2.0:
+        warnings.warn(DataWarning(
+            f"PLOTS: the plots' trees per ha by the table are {ratio:.1f} times the trees "
+            f"detected in them (median of {int(ok.sum())} plots; {np.mean(plots.area_m2):.0f} "
+            "m² a plot): check -plot_radius or the plots' polygons"), stacklevel=3)
+
+
 def _warn_stands(st, spec, cm, cell_stand, pm, res_aba) -> None:
     """Warn (the run goes on) of stands the points do not cover (their m³/ha is their flown
     part's) and of stands whose metrics lie beyond the plots' (the model extrapolates)."""
@@ -336,6 +354,7 @@ def _estimate(input, plots, output, stands, trees_table, plot_id, plot_radius, s
                                            plot_noise=meas["figures"].get("sampling_var_m3_ha"),
                                            resamples=options.resamples, seed=options.seed,
                                            stand_effect=options.estimator == "eblup")
+        _warn_density(meas["figures"].get("trees_ha"), res_trees["detected_trees_ha"], pl)
     _warn_stands(st, spec, cm, cell_stand, pm, res_aba)
     prog.update(0.92, "writing")
     layers, report, vol_grid = outs.build(area, pl, st, meas, pm, plot_stand, res_aba, res_trees,
