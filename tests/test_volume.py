@@ -160,7 +160,7 @@ def test_cli_both_approaches(farm, tmp_path, capsys):
     from PIL import Image
 
     with Image.open(tmp_path / "vol_report.png") as im:
-        assert im.size[0] == 2 * 600 and im.size[1] >= 600
+        assert im.size[0] == 12 * 150 and im.size[1] >= 6 * 150
     import sqlite3
 
     con = sqlite3.connect(out)

@@ -359,7 +359,8 @@ def write(output, side, layers, report, spec, vol_grid, res_aba, out, input, are
                         None if model is None else model.stats["loo"], tl)
             n = len(layers["stands"])
             plot_png(side["png"], [fit, _draw_stands(layers["stands"])], widths=[1, 1],
-                     size=(12, max(6.0, min(40.0, 1.0 + 0.22 * n))), overwrite=out.overwrite)
+                     size=(12, max(6.0, min(40.0, 1.0 + 0.22 * n))), dpi=150,
+                     overwrite=out.overwrite)  # 1800 px wide: a report's page width
             done["png"] = side["png"]
         if stand_csv is not None:
             from ..io.tables import write_table

@@ -6,9 +6,9 @@ import numpy as np
 
 
 # terrestrial scans (seeds 002 and 004)
-def plot_png(path, draw, *, size=(6, 6), overwrite=False, widths=None):
+def plot_png(path, draw, *, size=(6, 6), overwrite=False, widths=None, dpi=100):
     """A PNG of one axis drawn by ``draw(ax)``, or of several side by side (``draw`` a list,
-    ``widths`` their relative widths)."""
+    ``widths`` their relative widths), ``size`` inches at ``dpi``."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -17,7 +17,7 @@ def plot_png(path, draw, *, size=(6, 6), overwrite=False, widths=None):
     from ..io.output import atomic_output
 
     draws = list(draw) if isinstance(draw, (list, tuple)) else [draw]
-    fig, axes = plt.subplots(1, len(draws), figsize=size, dpi=100, squeeze=False,
+    fig, axes = plt.subplots(1, len(draws), figsize=size, dpi=dpi, squeeze=False,
                              gridspec_kw={"width_ratios": widths} if widths else None)
     for d, ax in zip(draws, axes[0]):
         d(ax)
