@@ -26,6 +26,12 @@ def _population(rng, cells_per_stand=120, effect=15.0):
     return m, vol, stand
 
 
+def _plot_draw(r, stand, extra):
+    """A plot in every stand and ``extra`` more anywhere: the cells they fall on."""
+    return np.r_[[r.choice(np.flatnonzero(stand == s)) for s in range(6)],
+                 r.choice(stand.size, extra, replace=False)]
+
+
 def test_stand_intervals_hold_the_truth_over_plot_draws():
     """8 plots a draw (1 per 6 ha of 48 ha), 25 draws: the 95 % intervals hold the stands'
     true volumes on at least 92 % of stands x draws when each bootstrap resample chooses its
@@ -36,8 +42,7 @@ def test_stand_intervals_hold_the_truth_over_plot_draws():
     held, n, half = 0, 0, []
     for k in range(25):
         r = np.random.default_rng(100 + k)
-        idx = np.r_[[r.choice(np.flatnonzero(stand == s)) for s in range(6)],
-                    r.choice(vol.size, 2, replace=False)]
+        idx = _plot_draw(r, stand, 2)
         pm = {key: v[idx] for key, v in m.items()}
         # the crew measures the plot: its volume is the cell's, give or take its sampling
         y = vol[idx] * r.normal(1.0, 0.05, idx.size)
@@ -204,8 +209,7 @@ def test_a_loglog_model_gives_young_stands_intervals_in_proportion():
     held, n, ratio = 0, 0, []
     for k in range(12):
         r = np.random.default_rng(700 + k)
-        idx = np.r_[[r.choice(np.flatnonzero(stand == s)) for s in range(6)],
-                    r.choice(vol.size, 3, replace=False)]
+        idx = _plot_draw(r, stand, 3)
         pm = {key: v[idx] for key, v in m.items()}
         model, _ = select_model(pm, vol[idx], forms=("loglog",))
         e = aba_stands(model, pm, vol[idx], m, stand, 6, stand[idx], resamples=100, seed=k)

@@ -229,9 +229,8 @@ def _model_report(model, table, est) -> dict:
             **{k: round(float(s[k]), 4) for k in keep},
             "selection": {"criterion": "leave-one-out RMSE", "candidates": list(CANDIDATES),
                           "best_by_size": table},
-            "procedure_loo_rmse_pct": round(float(est.get("procedure_loo_rmse_pct",
-                                                          s["loo_rmse_pct"])), 4),
-            "sigma2_stand": est["sigma2_stand"], "departures": est.get("departures"),
+            "procedure_loo_rmse_pct": round(float(est["procedure_loo_rmse_pct"]), 4),
+            "sigma2_stand": est["sigma2_stand"], "departures": est["departures"],
             "bootstrap_refits": est["resamples"],
             "stands_differ_test": est.get("stand_test")}
 
@@ -314,9 +313,12 @@ def _total_row(stands, report) -> dict:
     area = float(stands["area_ha"].to_numpy(float)[keep].sum())
     row = {"stand_id": "total", "area_ha": round(area, 4),
            "n_plots": int(stands["n_plots"].sum())}
-    pre = "volume_trees" if "volume_trees_m3" in stands.columns else "volume"
-    for prefix, part in (("volume", report), (pre, report.get("tree_approach"))):
-        if part is None or "total_m3" not in part or f"{prefix}_m3" not in stands.columns:
+    # the first figure's total is the report's own (area-based, else the tree method's)
+    parts = [("volume", report)]
+    if "volume_trees_m3" in stands.columns:
+        parts.append(("volume_trees", report["tree_approach"]))
+    for prefix, part in parts:
+        if "total_m3" not in part:
             continue
         for end in ("", "_low", "_high"):
             v = float(part[f"total_m3{end}"])
