@@ -105,6 +105,10 @@ def test_cli_both_approaches(farm, tmp_path, capsys):
         assert trow[f"volume_m3{end}"] == pytest.approx(rep2[f"total_m3{end}"], abs=0.06)
         assert trow[f"volume_m3_ha{end}"] == pytest.approx(
             rep2[f"total_m3{end}"] / s2["area_ha"].sum(), rel=1e-3)
+    # the basal area per ha over the stands: their area-weighted mean, inside its interval
+    g = float((s2["basal_area_m2_ha"] * s2["area_ha"]).sum() / s2["area_ha"].sum())
+    assert trow["basal_area_m2_ha"] == pytest.approx(g, rel=1e-3)
+    assert trow["basal_area_m2_ha_low"] < g < trow["basal_area_m2_ha_high"]
     assert list(t["stand_id"]) == list(s2["stand_id"]) and "talhao" in t.columns
     for f in ("volume_m3_ha", "volume_m3_ha_low", "volume_m3_ha_high", "volume_m3",
               "basal_area_m2_ha", "n_plots"):
@@ -494,3 +498,22 @@ def test_stands_the_points_do_not_cover_are_said_and_left_out_of_the_total(farm,
     assert total.endswith("; without F (no figure)"), total
     s = gpd.read_file(tmp_path / "v.gpkg", layer="stands")
     assert s["volume_m3"].isna().tolist() == [False] * 7 + [True]
+
+
+def test_stand_panel_writes_each_stands_figures():
+    """The PNG's stands panel writes each stand's m³/ha and interval beside it, as the table
+    has them (a report's reader needs the numbers, not only the bars)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import pandas as pd
+
+    from lidartrees_gis.inventory.outputs import _draw_stands
+
+    st = pd.DataFrame({"stand_id": ["T1", "T2"], "volume_m3_ha": [250.4, 101.2],
+                       "volume_m3_ha_low": [230.0, 80.6], "volume_m3_ha_high": [270.9, 121.0]})
+    fig, ax = plt.subplots()
+    _draw_stands(st)(ax)
+    texts = [t.get_text().strip() for t in ax.texts]
+    plt.close(fig)
+    assert texts == ["250 (230-271)", "101 (81-121)"]

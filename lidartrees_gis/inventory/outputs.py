@@ -118,6 +118,9 @@ def build(area, plots, stands, meas, pm, plot_stand, res_aba, res_trees, spec, c
         sdf["basal_area_m2_ha_low"] = np.round(est["low"], 3)
         sdf["basal_area_m2_ha_high"] = np.round(est["high"], 3)
         report["basal_area_model"] = _model_report(model, table, est)
+        tot = total_interval(est, stands.area_ha)  # m² of basal area in the stands
+        report["basal_area_model"].update({"total_m2": tot["total"], "total_m2_low": tot["low"],
+                                           "total_m2_high": tot["high"]})
     layers = {}
     if res_trees is not None:
         ts = res_trees["stands"]
@@ -273,8 +276,13 @@ def _draw(report, y, fit, loo, trees_loo=None):
     return draw
 
 
+#: the stands panel writes each stand's figures beside its interval up to this many stands
+STAND_LABELS = 30
+
+
 def _draw_stands(stands):
-    """Each stand's m³/ha and its 95 % interval, area-based and tree method side by side."""
+    """Each stand's m³/ha and its 95 % interval, area-based and tree method side by side, with
+    the figures written beside them (up to :data:`STAND_LABELS` stands)."""
     keys = [(p, lab, c) for p, lab, c in (("volume", "area-based", "tab:red"),
                                           ("volume_trees", "tree method", "tab:blue"))
             if f"{p}_m3_ha" in stands.columns]
@@ -284,6 +292,7 @@ def _draw_stands(stands):
     def draw(ax):
         pos = np.arange(n)
         off = np.linspace(-0.15, 0.15, len(keys)) if len(keys) > 1 else [0.0]
+        top = 0.0
         for (p, lab, c), d in zip(keys, off):
             v = stands[f"{p}_m3_ha"].to_numpy(float)
             lo = stands[f"{p}_m3_ha_low"].to_numpy(float)
@@ -293,10 +302,15 @@ def _draw_stands(stands):
                 lab = "estimate and 95 % interval"
             ax.errorbar(v[ok], pos[ok] + d, xerr=[v[ok] - lo[ok], hi[ok] - v[ok]], fmt="o",
                         ms=4, color=c, capsize=2, lw=1, label=lab)
+            top = max(top, float(np.nanmax(hi[ok]))) if ok.any() else top
+            if n <= STAND_LABELS:  # the figures beside each interval, as the table has them
+                for k in np.nonzero(ok)[0]:
+                    ax.text(hi[k], pos[k] + d, f"  {v[k]:.0f} ({lo[k]:.0f}-{hi[k]:.0f})",
+                            va="center", fontsize=6, color=c)
         ax.set_yticks(pos)
         ax.set_yticklabels(names, fontsize=max(5, min(9, int(400 / max(n, 1)))))
         ax.set_ylim(n - 0.5, -0.5)
-        ax.set_xlim(left=0)
+        ax.set_xlim(0, top * (1.45 if n <= STAND_LABELS else 1.05) if top > 0 else None)
         ax.set_xlabel("volume (m³/ha), 95 % interval")
         ax.set_title(f"stands ({n})", fontsize=9)
         ax.grid(axis="x", color="0.9")
@@ -307,7 +321,8 @@ def _draw_stands(stands):
 def _total_row(stands, report) -> dict:
     """The table's last row, ``stand_id`` ``total``: the stands with a figure, their area, plots
     and total m³ with its 95 % interval (:func:`models.total_interval`, not the sum of the
-    stands' ends), and the m³/ha those make over that area."""
+    stands' ends), and the m³/ha those make over that area; the basal area per ha over it the
+    same way."""
     left = set(report.get("total_left_out", []))
     keep = ~stands["stand_id"].astype(str).isin(left).to_numpy()
     area = float(stands["area_ha"].to_numpy(float)[keep].sum())
@@ -324,6 +339,10 @@ def _total_row(stands, report) -> dict:
             v = float(part[f"total_m3{end}"])
             row[f"{prefix}_m3{end}"] = round(v, 1)
             row[f"{prefix}_m3_ha{end}"] = round(v / area, 3) if area > 0 else None
+    ba = report.get("basal_area_model", {})
+    if "total_m2" in ba and area > 0:  # the stands' basal area per ha, with its interval
+        for end in ("", "_low", "_high"):
+            row[f"basal_area_m2_ha{end}"] = round(float(ba[f"total_m2{end}"]) / area, 3)
     return row
 
 
