@@ -160,16 +160,21 @@ def _assert_tiled_same(las, stands, params, st):
 def test_a_closed_stand_gets_its_lattice_from_the_canopy_where_the_tops_show_none(tmp_path,
                                                                                  monkeypatch):
     """A 6-year 3 x 2 m stand of closed crowns (1.5 ha, 8 pts/m²): the tops of neighbours in a
-    row merge, so ``-spacing auto`` found no lattice under them ("no rows of one direction and
-    spacing"); the canopy heights' spectrum finds it (to 0.05 m and 1°) and the stocking comes
-    within 3 points of the truth; in tiles, the same."""
+    row merge, so no aligned lattice fits them; their rows, each with its own phase, give it
+    (to 0.05 m and 1°); without that look the canopy heights' spectrum finds it, and the
+    stocking comes within 3 points of the truth; in tiles, the same."""
     import lidartrees_gis.plantation.canopy_lattice as canopy_lattice
+    import lidartrees_gis.plantation.stocking as stocking
     from lidartrees_gis import api as lt
     from lidartrees_gis.als.trees import TreeParams
 
     cfg = fam._cfg("closed", [fam._stand((3, 2), 20, 1.5, crown_k=fam.CLOSED)], slope=0.08)
     las, stands, truth = _stand_files(cfg, tmp_path)
     params = TreeParams(spacing="auto")
+    st = lt.find_trees(las, params=params, stands=stands)[2]["stands"].iloc[0]
+    assert st["lattice"] == "found" and st["spacing"] == "3x2"
+    assert abs((st["row_azimuth"] - 20.0 + 90.0) % 180.0 - 90.0) <= 1.0
+    monkeypatch.setattr(stocking, "find_rows", lambda *a, **k: None)
     st = lt.find_trees(las, params=params, stands=stands)[2]["stands"].iloc[0]
     assert st["lattice"] == "found" and st["spacing"] == "3x2"
     assert abs((st["row_azimuth"] - 20.0 + 90.0) % 180.0 - 90.0) <= 1.0
@@ -189,6 +194,7 @@ def test_a_stand_whose_canopy_shows_its_rows_only_gets_its_plants_from_the_canop
     (to 0.05 m and 1°, the truth inside the stocking interval), the same in 40 m tiles;
     without that look the stand has no lattice."""
     import lidartrees_gis.plantation.canopy_lattice as canopy_lattice
+    import lidartrees_gis.plantation.stocking as stocking
     from lidartrees_gis import api as lt
     from lidartrees_gis.als.trees import TreeParams
 
@@ -196,6 +202,8 @@ def test_a_stand_whose_canopy_shows_its_rows_only_gets_its_plants_from_the_canop
                                          missing=0.15)], slope=0.15)
     las, stands, truth = _stand_files(cfg, tmp_path)
     params = TreeParams(spacing="auto")
+    # the tops' rows, each with its own phase, find this lattice first: left out here
+    monkeypatch.setattr(stocking, "find_rows", lambda *a, **k: None)
     seen = []
     from_peaks = canopy_lattice.peaks_lattice_guess
     monkeypatch.setattr(canopy_lattice, "peaks_lattice_guess",

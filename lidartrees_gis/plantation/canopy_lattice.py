@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 
 from .spectrum import MIN_PERIOD_CELLS, SPECTRAL_PERIODS, _spectral_guess
-from .stocking import _sample, _spacing_along, fit_planting_grid
+from .lattice import _sample, _spacing_along
+from .stocking import fit_planting_grid
 
 
 #: :func:`canopy_spectrum`'s polar grid: directions (0.5° steps) ...

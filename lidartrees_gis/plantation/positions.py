@@ -61,6 +61,7 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
     of ``jobs``, in order (a run's workers, one stand each); by default fitted here in turn.
     """
     from .canopy_lattice import canopy_planting, canopy_rows_only
+    from .rows import choose
     from .stocking import PLANTING_MIN_TREES
 
     tx, ty = np.asarray(top_x, float), np.asarray(top_y, float)
@@ -91,18 +92,26 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
     own.update(zip(todo, found))
     own.update({k: None for k in keys if k not in own})
     if auto and spectra is not None:
-        # where the tops show no lattice: the canopy's spectrum (one more pass for them only)
-        lost = [k for k, g in own.items() if g is None and tops_of(k)[0].size >= 10]
+        # where the tops show no aligned lattice: the canopy's spectrum (one more pass for
+        # them only); where the tops showed rows with their own phases, the one of the two
+        # :func:`~.rows.choose` keeps
+        lost = [k for k, g in own.items() if (g is None or not g.aligned)
+                and tops_of(k)[0].size >= 10]
         if zone is not None and lost == ["all"]:
             lost = []  # with stands, the area's lattice is a fallback only: no pass for it alone
         if lost:
             powers = spectra(lost)
             for k in lost:
-                if powers.get(k) is not None:
-                    own[k] = canopy_planting(*tops_of(k), powers[k], cell)
-                    why = None if own[k] is not None else canopy_rows_only(powers[k], cell)
-                    if why:
-                        out[("why", k)] = why
+                if powers.get(k) is None:
+                    continue
+                rows = own[k]
+                own[k] = canopy_planting(*tops_of(k), powers[k], cell)
+                if rows is not None:
+                    own[k] = choose(rows, own[k], *tops_of(k))
+                    continue
+                why = None if own[k] is not None else canopy_rows_only(powers[k], cell)
+                if why:
+                    out[("why", k)] = why
 
     def all_tops():
         if "all" not in out:

@@ -195,9 +195,17 @@ def counts(status, share, returns=None) -> dict:
         returns = np.zeros(status.size)
     n = np.asarray(returns, float)
     p = np.where(unc, share, stocked_probability(np.round(share * n), n))
+    # each term on a binary grid (2^-30): every partial sum is then exact, and a stand's
+    # figures summed over its tiles in any order are those of one run
+    q = np.round(share * EXACT) / EXACT
+    v = np.round(p * (1.0 - p) * EXACT) / EXACT
     return {"missing": int((status == MISSING).sum()),
             "missing_crowned": int(((status == MISSING) & (share > 0)).sum()),
             "suppressed": int((status == SUPPRESSED).sum()), "uncertain": int(unc.sum()),
-            "uncertain_stocked": float(share[unc].sum()),
-            "stocked_var": float((p * (1.0 - p)).sum()),
-            "resolved_var": float((p * (1.0 - p))[~unc].sum())}
+            "uncertain_stocked": float(q[unc].sum()),
+            "stocked_var": float(v.sum()),
+            "resolved_var": float(v[~unc].sum())}
+
+
+#: :func:`counts` rounds each position's share and variance to multiples of 1 / EXACT
+EXACT = float(2 ** 30)

@@ -11,74 +11,17 @@ to it, and reports the positions left empty (missing trees) and the stocking per
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from scipy import ndimage
 
 from ..errors import InputError
+from .lattice import (FIT_MAX_TREES, PlantingGrid, _concentration, _sample,  # noqa: F401
+                      _spacing_along)
+from .rows import ROWS_MIN_EVIDENCE, ROWWISE_GAIN, find_rows, fit_rows
 from .spectrum import MIN_PERIOD_CELLS, _spectral_guess  # noqa: F401
 from .table import Positions
 from .stockreport import (PLANTING_MIN_TREES, STOCK_COUNTS, axial_mean,  # noqa: F401
                           axial_round, fitted_spacing, stocking_fields)
-
-
-@dataclass(frozen=True)
-class PlantingGrid:
-    """A planting lattice: position ``(i, j)`` (tree ``i`` along the row, row ``j``) is at
-    ``origin + i * tree_spacing * u + j * row_spacing * v`` with ``u`` the row direction
-    (azimuth ``azimuth`` degrees clockwise from grid north) and ``v`` across the rows."""
-
-    row_spacing: float
-    tree_spacing: float
-    azimuth: float
-    origin_x: float
-    origin_y: float
-    fit: float  # 0-1: how concentrated the tops are on the lattice (1 = exactly on it)
-
-    @property
-    def u(self):
-        a = np.radians(self.azimuth)
-        return np.array([np.sin(a), np.cos(a)])
-
-    @property
-    def v(self):
-        a = np.radians(self.azimuth)
-        return np.array([np.cos(a), -np.sin(a)])
-
-    def to_lattice(self, x, y):
-        """Fractional lattice coordinates ``(i, j)`` of map points."""
-        dx = np.asarray(x, float) - self.origin_x
-        dy = np.asarray(y, float) - self.origin_y
-        u, v = self.u, self.v
-        return (dx * u[0] + dy * u[1]) / self.tree_spacing, (dx * v[0] + dy * v[1]) / self.row_spacing
-
-    def to_map(self, i, j):
-        """Map coordinates of lattice coordinates ``(i, j)``."""
-        i = np.asarray(i, float)
-        j = np.asarray(j, float)
-        u, v = self.u, self.v
-        x = self.origin_x + i * self.tree_spacing * u[0] + j * self.row_spacing * v[0]
-        y = self.origin_y + i * self.tree_spacing * u[1] + j * self.row_spacing * v[1]
-        return x, y
-
-
-def _concentration(p, period):
-    z = np.exp(2j * np.pi * p / period).mean(axis=-1)
-    return np.abs(z), np.angle(z)
-
-
-#: the planting grid is fitted on at most this many tops (a fixed sample of larger stands: the
-#: lattice is the same, and the fit's memory and time stay bounded)
-FIT_MAX_TREES = 20_000
-
-
-def _sample(x, y, n: int = FIT_MAX_TREES):
-    """At most ``n`` of the positions, the same ones on every run."""
-    if x.size <= n:
-        return x, y
-    k = np.sort(np.random.default_rng(0).choice(x.size, n, replace=False))
-    return x[k], y[k]
 
 
 #: :func:`detect_planting` first fits the lattice on this many of the tops and gives up when
@@ -124,6 +67,7 @@ def fit_planting_grid(x, y, row_spacing: float, tree_spacing: float, *,
                          "(at least 10)")
     if not (row_spacing > 0 and tree_spacing > 0):
         raise InputError("-spacing: spacings must be > 0")
+    all_x, all_y = x, y
     x, y = _sample(x, y)
     x0, y0 = float(np.mean(x)), float(np.mean(y))
     dx, dy = x - x0, y - y0
@@ -156,8 +100,14 @@ def fit_planting_grid(x, y, row_spacing: float, tree_spacing: float, *,
     ou = phu[k] / (2 * np.pi) * tree_spacing
     ov = phv[k] / (2 * np.pi) * row_spacing
     ox, oy = x0 + ou * u[0] + ov * v[0], y0 + ou * u[1] + ov * v[1]
-    return PlantingGrid(float(row_spacing), float(tree_spacing), az, float(ox), float(oy),
-                        float(s[k]))
+    g = PlantingGrid(float(row_spacing), float(tree_spacing), az, float(ox), float(oy),
+                     float(s[k]))
+    if g.fit * ROWWISE_GAIN < 1.0:  # the rows each with their own phase, when they fit better
+        rw = fit_rows(all_x, all_y, row_spacing, tree_spacing, azimuths=coarse, fit_x=x,
+                      fit_y=y)
+        if rw.fit > ROWWISE_GAIN * g.fit:
+            return rw
+    return g
 
 
 def stand_mask(chm, res: float, row_spacing: float, tree_spacing: float, *,
@@ -320,10 +270,15 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
             ok[:] = False
     cx0, cy0 = nx[cut], ny[cut]
     ii, jj, nx, ny, edge = ii[ok], jj[ok], nx[ok], ny[ok], edge[ok]
-    # one top per position: closest pairs first, within half the smaller spacing
+    # one top per position: closest pairs first, in the position's cell (half a spacing along
+    # the row and half across it, distances in spacings): a crown's apex leaning 1 m across a
+    # 3 m row is still its row's tree (within half the smaller spacing, 9 % of a 3 x 2 m
+    # stand's tops took no position on the independent farm generator and stayed extra trees)
     from ..report.evaluate import match_trees
 
-    node_k, top_k = match_trees(nx, ny, tx, ty, max_dist=0.5 * min(R, C))
+    m = min(R, C)
+    ti, tj = g.to_lattice(tx, ty)
+    node_k, top_k = match_trees(ii * m, jj * m, ti * m, tj * m, max_dist=0.5 * m)
     stocked_mask = np.zeros(ii.size, bool)
     stocked_mask[node_k] = True
     row_no, plant_no, numbering = crew_numbers(g, ii, jj, anchor)
@@ -382,19 +337,6 @@ def stocking(top_x, top_y, chm, spec, spacing, *, min_height: float = 2.0,
 #: Topography, the four bcts tiles, pycrown and the three rLiDAR plots 0.002-0.051, the eleven
 #: NEON plots, of 21-59 trees, 0.068-0.106)
 PLANTING_MIN_FIT = 0.25
-
-
-def _spacing_along(p, s0, within: float = 0.15, step: float | None = None):
-    """The period near ``s0`` (within ``within``, ±15 %) on which the positions ``p``
-    concentrate most; among 121 candidates, or (``step``) among the multiples of ``step`` (m):
-    the same candidates whatever ``s0``."""
-    if step is None:
-        cand = s0 * np.linspace(1.0 - within, 1.0 + within, 121)
-    else:
-        cand = np.arange(np.floor(s0 * (1 - within) / step),
-                         np.ceil(s0 * (1 + within) / step) + 1) * step
-    r, _ = _concentration(p[None, :], cand[:, None])
-    return float(cand[int(np.argmax(r))])
 
 
 #: :func:`detect_planting` recentres its ±12° window of neighbour directions at most this often
@@ -508,6 +450,14 @@ def detect_planting(x, y, *, min_trees: int = PLANTING_MIN_TREES,
             g2 = _detect_from(x, y, dx, dy, *guess, min_fit)
             if g2 is not None and (g is None or g2.fit > g.fit):
                 g = g2
+    if (g is None or g.fit < min_fit) and spectral:
+        # no period along the rows: rows planted each from the stand's edge (their own phases;
+        # plantation mode's search only: the defaults' look in a tile of two stands would
+        # take one stand's rows for the tile's)
+        g2 = find_rows(x, y, dx, dy, cell)
+        if g2 is not None and g2.fit * np.sqrt(x.size) >= ROWS_MIN_EVIDENCE:
+            return g2 if min(g2.row_spacing, g2.tree_spacing) >= MIN_PERIOD_CELLS * cell \
+                else None
     if g is None or g.fit < min_fit or \
             min(g.row_spacing, g.tree_spacing) < MIN_PERIOD_CELLS * cell:
         return None
