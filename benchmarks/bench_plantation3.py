@@ -15,7 +15,8 @@ and every stand is scored as ``bench_stands2.score_stand`` scores the second fam
 within 0.05 m and 1°, stocking error and interval, gaps, tree F) against the farm's truth
 (``truth_arvores.csv``: every planting position, ``viva`` 0 where a tree is missing; the tree
 top at the crown's centre). The defaults' rows carry the tree F only.
-Results: ``benchmarks/results/plantation3.json``. Usage:
+Results: ``benchmarks/results/plantation3.json`` (``plantation3_before.json``: the stop before
+rows with their own phases, 0151209). Usage:
 ``python benchmarks/bench_plantation3.py [--work /tmp/bench_volume2] [--configs NAME ...]``.
 """
 from __future__ import annotations
