@@ -181,7 +181,6 @@ def find_rows(x, y, dx, dy, cell: float = 0.0):
                     fit_x=sx, fit_y=sy)
 
 
-
 #: :func:`choose`: the canopy's plant spacing times k is the tops' within this share of it
 #: (k = 1: the same spacing; 2, 3: a harmonic; the independent generator's 3 x 2 m stands of
 #: rows with their own phases: the canopy read 2.047 and 1.021 where the tops gave 2.002)
