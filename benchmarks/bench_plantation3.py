@@ -106,11 +106,10 @@ def main(argv=None):
     a = ap.parse_args(argv)
     rows = []
     for name in a.configs:
-        d = _generate(a.work, name, 1)
-        rows += run_farm(d, name, sys.executable)
-        for r in rows[-2 * 6:]:
-            if r["config"] == name:
-                print(" | ".join(str(r.get(c, "")) for c in COLUMNS), flush=True)
+        farm = run_farm(_generate(a.work, name, 1), name, sys.executable)
+        for r in farm:
+            print(" | ".join(str(r.get(c, "")) for c in COLUMNS), flush=True)
+        rows += farm
     a.out.parent.mkdir(parents=True, exist_ok=True)
     a.out.write_text(json.dumps({"benchmark": "plantation mode on the volume generator's farms",
                                  "generator": "benchmarks/_volume_gen2.py",

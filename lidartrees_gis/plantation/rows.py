@@ -117,7 +117,6 @@ def fit_rows(x, y, row_spacing: float, tree_spacing: float, *, azimuths=None, fi
     az = round(float(fine[k]) % 180.0, 2) % 180.0
     if az != round(float(fine[k]), 2):  # reported in [0, 180): the opposite directions
         phases, first = -phases[::-1], -int(rows.max())
-        ox, oy = float(ox), float(oy)
     else:
         first = int(rows.min())
     phases = np.where(phases >= 0.5, phases - 1.0, phases)
@@ -207,8 +206,9 @@ def choose(rows, canopy, x, y):
                    <= SAME_SPACING[k] * rows.tree_spacing for k in SAME_SPACING)
         return rows if same else canopy
 
+    dx, dy = np.asarray(x, float) - np.mean(x), np.asarray(y, float) - np.mean(y)
+
     def across(g):
-        dx, dy = np.asarray(x, float) - np.mean(x), np.asarray(y, float) - np.mean(y)
         return _across(dx, dy, np.array([[np.radians(g.azimuth)]]), g.row_spacing)[0][0]
 
     return rows if across(rows) >= across(canopy) else canopy
