@@ -378,3 +378,35 @@ def test_a_stand_beyond_the_points_is_said_in_words_never_nan(two_stands, tmp_pa
     assert not re.search(r"\bnan\b", text, re.I)
     s = gpd.read_file(out, layer="stands").set_index("stand_id")
     assert s.loc["T-09", "trees"] == 0 and s.loc["T-01", "trees"] > 900
+
+
+def test_a_young_stand_beside_an_old_one_keeps_its_trees(tmp_path):
+    """A farm holds stands of every age: a 6 m stand beside a 23 m one. Plantation mode drops
+    tops under 30 % of the canopy as understorey; read against the area's one dominant height
+    (23 m) that dropped the young stand's trees (its stocking read 20 % of a 95 % truth). Each
+    top is read against its own neighbours' canopy."""
+    import pyogrio
+
+    common = dict(width=60, height=60, density=8, slope_x=0, slope_y=0, missing_fraction=0.05)
+    a_pts, a = make_stand(StandParams(seed=11, origin_x=OX, origin_y=OY, **common))
+    b_pts, b = make_stand(StandParams(seed=12, origin_x=OX + 60, origin_y=OY, mean_height=6.0,
+                                      sd_height=0.5, mean_crown_radius=0.8, crown_depth=3.0,
+                                      **common))
+    keep_b = b_pts.x >= OX + 60
+    write_points(tmp_path / "farm.las", np.r_[a_pts.x, b_pts.x[keep_b]],
+                 np.r_[a_pts.y, b_pts.y[keep_b]], np.r_[a_pts.z, b_pts.z[keep_b]],
+                 crs=CRS.from_epsg(31984),
+                 classification=np.r_[a_pts.classification, b_pts.classification[keep_b]])
+    gpd.GeoDataFrame({"talhao": ["OLD", "YOUNG"]},
+                     geometry=[shapely.box(OX, OY, OX + 60, OY + 60),
+                               shapely.box(OX + 60, OY, OX + 120, OY + 60)],
+                     crs="EPSG:31984").to_file(tmp_path / "stands.gpkg")
+    _run(["trees", str(tmp_path / "farm.las"), str(tmp_path / "farm.gpkg"), "-spacing", "3x2",
+          "-stands", str(tmp_path / "stands.gpkg")])
+    st = pyogrio.read_dataframe(tmp_path / "farm.gpkg", layer="stands", read_geometry=False)
+    st = st.set_index("stand_id")
+    for sid, truth in (("OLD", a), ("YOUNG", b)):
+        true_pct = 100 * len(truth["x"]) / (len(truth["x"]) + len(truth["_missing_x"]))
+        assert st.loc[sid, "dominant_height"] > (15 if sid == "OLD" else 4)
+        assert abs(st.loc[sid, "stocking_pct"] - true_pct) < 2.0, (sid, true_pct)
+    assert st.loc["YOUNG", "trees"] > 0.9 * len(b["x"][b["x"] >= OX + 60])

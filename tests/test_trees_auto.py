@@ -257,13 +257,16 @@ def test_plantation_mode_writes_gaps_and_stocking(tmp_path, stand):
     assert gaps.crs.to_epsg() == 31984 and len(gaps) == int(summ.missing_trees[0])
     assert summ.spacing[0] == "3x2" and summ.planting_positions[0] == 600
     # the stand lost 8 of its 600 positions: each is found as a gap, or left to a field check
-    # (one, under a neighbour's crown reaching over it: 11 of its 25 returns at crown height)
+    # (four, under neighbours' crowns reaching over them: 1-11 of their 17-24 returns at crown
+    # height, which a small suppressed crown gives too); every gap called missing is one
     from scipy.spatial import cKDTree
 
     open_ = empty[empty.status != "suppressed"]
     d, _ = cKDTree(np.c_[open_.x, open_.y]).query(np.c_[truth["_missing_x"],
                                                          truth["_missing_y"]])
-    assert (d < 0.5).all() and len(gaps) >= 7
+    assert (d < 0.5).all() and len(gaps) >= 4
+    d, _ = cKDTree(np.c_[truth["_missing_x"], truth["_missing_y"]]).query(np.c_[gaps.x, gaps.y])
+    assert (d < 0.5).all()
     assert set(empty.crown_share[empty.status == "missing"]) and \
         empty.crown_share[empty.status == "missing"].max() < 0.5 <= \
         empty.crown_share[empty.status == "suppressed"].min()

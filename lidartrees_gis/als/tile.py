@@ -116,6 +116,10 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
     # tree at a position just beyond the core may stand inside it
     looks = st["looks"]
     if returns is not None and len(looks) and st.get("spacing") is not None:
+        if given:  # a planted tree reaches the understorey's share of its neighbours' canopy
+            hd0 = _dominant_height(result, arr, spec, params)
+            lowest = np.maximum(params.min_height, UNDERSTOREY_HEIGHT * _canopy_of(
+                looks.x, looks.y, _tops_xyh(t), st, zone, spec, hd0))
         rows, cols = gap_tops(looks.x, looks.y, returns, result["smoothed"], spec,
                               st["spacing"], top_x=t["x"], top_y=t["y"], min_height=lowest,
                               smaller=own_spacings(st, looks.zone))
@@ -135,14 +139,16 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
                                        grids=st["grids"], masks=st.get("masks"))
     hd = _dominant_height(result, arr, spec, params)
     if given:  # the stocking report (gaps layer) is for plantation mode only
-        result["stocking"] = classify_gaps(st, points, st["spacing"], hd, params.min_height)
+        result["stocking"] = classify_gaps(st, points, st["spacing"], hd, params.min_height,
+                                           tops=_tops_xyh(result["table"]))
     elif points is not None and st["missing"]:  # a lattice under the defaults' tops: its
         if added:  # empty positions holding a suppressed tree (no stocking report)
             t = result["table"]
             st = stocking_by_stand(t["x"], t["y"], arr, spec, spacing, None,
                                    min_height=params.min_height, grid=grid, within=within,
                                    masks=st.get("masks"))
-        result["understorey"] = classify_gaps(st, points, st["spacing"], hd, params.min_height)
+        result["understorey"] = classify_gaps(st, points, st["spacing"], hd, params.min_height,
+                                              tops=_tops_xyh(result["table"]))
     result["gap_trees"] = added
     return result
 
@@ -338,6 +344,27 @@ def number_regions(stands, extent) -> dict:
     return out
 
 
+def _canopy_of(x, y, tops, st, zone, spec, hd) -> np.ndarray:
+    """The canopy's height over each point ``x, y``: the median of the ``tops`` around it
+    within 1.5 x its own stand's larger spacing
+    (:func:`lidartrees_gis.plantation.status.canopy_over`; ``hd`` where too few)."""
+    from ..plantation.positions import own_spacings, top_zones
+    from ..plantation.status import canopy_over
+
+    if st.get("spacing") is None:
+        return np.full(np.asarray(x).size, float(hd))
+    larger = None
+    if zone is not None and st.get("zones"):
+        larger = own_spacings(st, top_zones(x, y, zone, spec), larger=True)
+    return canopy_over(x, y, tops, st["spacing"], hd, larger=larger)
+
+
+def _tops_xyh(t) -> tuple:
+    """``(x, y, height)`` of a tops table."""
+    return (np.asarray(t["x"], float), np.asarray(t["y"], float),
+            np.asarray(t["height"], float))
+
+
 def _dominant_height(result, arr, spec, params: TreeParams) -> float:
     """The dominant height the adaptive window used (the plan's, or the CHM's own)."""
     hd = (result.get("auto") or {}).get("dominant_height", params.dominant_height)
@@ -365,7 +392,11 @@ def _one_per_position(result, st, arr, spec, params: TreeParams, heights, zone, 
     t = result["table"]
     hd = _dominant_height(result, arr, spec, params)
     lowest = max(params.min_height, UNDERSTOREY_HEIGHT * float(hd))
-    low = np.asarray(t["height"], float) < lowest
+    # under its own neighbours' canopy: a young stand beside an older one keeps its trees
+    # (the area's one dominant height dropped them all)
+    canopy = _canopy_of(t["x"], t["y"], _tops_xyh(t), st, zone, spec, hd)
+    low = np.asarray(t["height"], float) < np.maximum(params.min_height,
+                                                      UNDERSTOREY_HEIGHT * canopy)
     drop = low | np.asarray(st.get("shares", np.zeros(low.size, bool)), bool)
     if not drop.any() or drop.all():
         return result, st, lowest

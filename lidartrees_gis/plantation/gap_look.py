@@ -15,7 +15,7 @@ GAP_CLEARANCE = 0.5
 
 
 def gap_tops(gaps_x, gaps_y, returns, chm_s, spec, spacing, *, top_x, top_y,
-             min_height: float = 2.0, reach: float = GAP_REACH,
+             min_height=2.0, reach: float = GAP_REACH,
              apex_radius: float = GAP_APEX_RADIUS, clearance: float = GAP_CLEARANCE,
              smaller=None):
     """Tops of trees at empty planting positions that the tops finder missed.
@@ -41,6 +41,9 @@ def gap_tops(gaps_x, gaps_y, returns, chm_s, spec, spacing, *, top_x, top_y,
         Row and tree spacing (m).
     top_x, top_y : array_like
         The detected tops.
+    min_height : float or array_like
+        The height an apex must reach, one for all positions or one per position (the
+        understorey's share of each one's own canopy).
     smaller : array_like, optional
         The smaller spacing of each position's own lattice, where stands of other spacings
         share a tile (instead of ``spacing``'s): a stand's positions are looked at alike
@@ -59,6 +62,8 @@ def gap_tops(gaps_x, gaps_y, returns, chm_s, spec, spacing, *, top_x, top_y,
         return none
     own = np.full(gx.size, float(min(spacing))) if smaller is None else \
         np.broadcast_to(np.asarray(smaller, float), gx.shape)
+    need = np.broadcast_to(np.asarray(min_height, float), gx.shape)
+    min_height = float(need.min())  # the apexes of all; each position's own below
     a = np.asarray(returns, np.float64)
     finite = np.isfinite(a)
     a = np.where(finite, a, -np.inf)
@@ -71,7 +76,8 @@ def gap_tops(gaps_x, gaps_y, returns, chm_s, spec, spacing, *, top_x, top_y,
     cx, cy = spec.xy(rows, cols)
     tx, ty = np.asarray(top_x, float), np.asarray(top_y, float)
     d = cKDTree(np.c_[tx, ty]).query(np.c_[cx, cy])[0] if tx.size else np.full(cx.size, np.inf)
-    h = a[rows, cols]
+    h = np.minimum(a[rows, cols], np.asarray(chm_s, float)[rows, cols])
+    h_top = a[rows, cols]
     pick = set()
     for s in np.unique(own):  # each lattice's positions at their own spacing
         keep = np.nonzero(d >= clearance * s)[0]
@@ -81,6 +87,10 @@ def gap_tops(gaps_x, gaps_y, returns, chm_s, spec, spacing, *, top_x, top_y,
         # per position, the highest candidate within reach
         near = cKDTree(np.c_[cx[keep], cy[keep]]).query_ball_point(np.c_[gx[at], gy[at]],
                                                                    reach * s)
-        pick |= {int(keep[max(k, key=lambda i: (h[keep[i]], -keep[i]))]) for k in near if k}
+        for k, m in zip(near, need[at]):
+            if k:  # the highest candidate within reach, when it and the CHM there reach m
+                best = int(keep[max(k, key=lambda i: (h_top[keep[i]], -keep[i]))])
+                if h[best] >= m:
+                    pick.add(best)
     pick = np.asarray(sorted(pick), np.int64)
     return rows[pick], cols[pick]

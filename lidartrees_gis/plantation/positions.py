@@ -243,13 +243,15 @@ def _row_at(rows, d: int) -> tuple:
     return k, rows[k] == rows + d if rows.size else np.zeros(0, bool)
 
 
-def own_spacings(st: dict, zone):
-    """The smaller spacing of each position's own stand lattice (``zone``: each position's
-    zone in :func:`stocking_by_stand`'s ``zones``), or None without zones."""
+def own_spacings(st: dict, zone, larger: bool = False):
+    """The smaller (``larger``: the larger) spacing of each position's own stand lattice
+    (``zone``: each position's zone in :func:`stocking_by_stand`'s ``zones``), or None without
+    zones."""
     if not st.get("zones") or zone is None:
         return None
-    own = {k: min(z["spacing"]) for k, z in st["zones"].items() if z.get("spacing")}
-    return np.array([own.get(int(k), min(st["spacing"])) for k in zone], float)
+    pick = max if larger else min
+    own = {k: pick(z["spacing"]) for k, z in st["zones"].items() if z.get("spacing")}
+    return np.array([own.get(int(k), pick(st["spacing"])) for k in zone], float)
 
 
 def lattice_anchor(grid: PlantingGrid, region, res: float) -> tuple:

@@ -9,30 +9,34 @@ import numpy as np
 from .positions import own_spacings
 
 
-#: an empty planting position holds a suppressed tree when at least :data:`SUPPRESSED_SHARE`
-#: of the returns within :data:`SUPPRESSED_REACH` x the smaller spacing of it lie at or above
-#: :data:`SUPPRESSED_HEIGHT` x the dominant height: a crown stands at the position, under or
-#: beside its neighbours' (the ground or a shrub of a missing tree's position does not reach
-#: that height)
+#: returns at or above :data:`SUPPRESSED_HEIGHT` x the canopy's height over a position
+#: (:func:`canopy_over`) are a crown's (the ground or a shrub of a missing tree's position does
+#: not reach that height)
 SUPPRESSED_HEIGHT = 0.3
-#: an empty position whose highest return near it reaches this x the dominant height holds a
-#: crown at the canopy's height and no top: a neighbour's crown over a missing tree, or a tree
-#: whose top merged with a neighbour's; not told apart, it is *uncertain*, not suppressed
-#: (independent farm generator: the suppressed calls at missing positions of a closed 3 x 2 m
-#: stand stood at 0.86-1.0 of the canopy's height)
-OVERLAP_HEIGHT = 0.85
-SUPPRESSED_SHARE = 0.5
+#: the returns within :data:`SUPPRESSED_REACH` x the smaller spacing of an empty position tell
+#: what stands there; the share of them at a crown's height is read within
+#: :data:`SUPPRESSED_WIDE` spacings when fewer than :data:`SUPPRESSED_MIN_RETURNS` lie that close
 SUPPRESSED_REACH = 0.25
-#: fewer returns than this within the reach: it grows to :data:`SUPPRESSED_WIDE` spacings
 SUPPRESSED_MIN_RETURNS = 4
 SUPPRESSED_WIDE = 0.4
-#: a position is called suppressed or missing only when the share's Wilson interval at this
-#: many standard errors lies wholly on one side of :data:`SUPPRESSED_SHARE`; else it is
-#: *uncertain* (a field check). The share of a handful of returns is noisy, and a neighbour's
-#: crown reaching over a missing tree's position gives the same share as a suppressed tree's
-#: (benchmarks/_family.py: the errors of a plain ``share >= 0.5`` were such positions, with
-#: 5-13 returns and shares of 0.25-0.6)
+#: an empty position whose highest return that close reaches this x the canopy's height holds
+#: a crown at the canopy's height and no top: a neighbour's crown over a missing tree, or a tree
+#: whose top merged with a neighbour's; not told apart, it is *uncertain*
+OVERLAP_HEIGHT = 0.85
+#: under it, a position with a crown return that close is called suppressed only when the
+#: Wilson interval (at :data:`UNCERTAIN_Z` standard errors) of the share of its close returns
+#: at a crown's height lies wholly above :data:`SUPPRESSED_SHARE`; else it is *uncertain* (a
+#: field check: a small suppressed crown lets most pulses through to the ground, and a
+#: neighbour's crown flank reaching over a missing tree's position gives a share as low; on the
+#: three stand families 19-99 % of such positions held a tree), never missing
+SUPPRESSED_SHARE = 0.5
 UNCERTAIN_Z = 1.0
+#: an empty position with no crown return that close is missing when at least this many returns
+#: lie that close (the ground seen there), or when none of at least :data:`WIDE_MIN_RETURNS`
+#: within :data:`SUPPRESSED_WIDE` spacings is at a crown's height; with fewer returns it is
+#: uncertain (a data void: a tree stood at 32-40 % of such positions on the generators)
+MISSING_MIN_RETURNS = 2
+WIDE_MIN_RETURNS = 3
 
 MISSING, SUPPRESSED, UNCERTAIN = 0, 1, 2
 #: the gaps layer's ``status`` of each code
@@ -54,8 +58,11 @@ def wilson_interval(k, n, z: float = UNCERTAIN_Z):
 
 def position_status(gaps_x, gaps_y, points, spacing, dominant_height: float,
                     min_height: float = 2.0, *, smaller=None) -> dict:
-    """What stands at each empty planting position (see :data:`SUPPRESSED_SHARE` and
-    :data:`UNCERTAIN_Z`).
+    """What stands at each empty planting position, from its returns within a quarter of the
+    smaller spacing: crown returns there under :data:`OVERLAP_HEIGHT` x the canopy's height
+    are a suppressed tree when most of those returns are a crown's (:data:`SUPPRESSED_SHARE`,
+    :data:`UNCERTAIN_Z`); no crown return among enough of them (:data:`MISSING_MIN_RETURNS`,
+    :data:`WIDE_MIN_RETURNS`) is a missing tree; anything else is *uncertain*, a field check.
 
     Parameters
     ----------
@@ -65,9 +72,10 @@ def position_status(gaps_x, gaps_y, points, spacing, dominant_height: float,
         ``(x, y, height above ground)`` of every return near them (all returns: a suppressed
         crown is seen by the pulses that pass the canopy).
     spacing : (float, float)
-    dominant_height : float
-        The stand's dominant height (m); a suppressed tree reaches at least
-        ``SUPPRESSED_HEIGHT`` of it (and ``min_height``).
+    dominant_height : float or (N,) array_like
+        The canopy's height over each position (m): the stand's dominant height, or the
+        median of its neighbours' tops (:func:`canopy_over`); a suppressed tree reaches at
+        least ``SUPPRESSED_HEIGHT`` of it (and ``min_height``).
     smaller : (N,) array_like, optional
         The smaller spacing of each position's own lattice, where stands of other spacings
         share a tile (instead of ``spacing``'s).
@@ -78,20 +86,28 @@ def position_status(gaps_x, gaps_y, points, spacing, dominant_height: float,
         ``status`` (int8: :data:`MISSING`, :data:`SUPPRESSED` or :data:`UNCERTAIN`),
         ``share`` (the share of the returns near the position at the suppressed height),
         ``returns`` (how many returns the share is of), and ``height, x, y``: the highest
-        return near each position whose share reaches :data:`SUPPRESSED_SHARE` (a suppressed
-        tree, or an uncertain position that leans to one; NaN and the position for the
-        others; a tiled run, whose tiles each fit the lattice, finds the same return).
+        crown return near each suppressed tree, or uncertain position whose share reaches
+        :data:`SUPPRESSED_SHARE` (that leans to one; NaN and the position for the others; a
+        tiled run, whose tiles each fit the lattice, finds the same return).
     """
     from scipy.spatial import cKDTree
 
     gx, gy = np.asarray(gaps_x, float), np.asarray(gaps_y, float)
     k_hi = np.zeros(gx.size, np.int64)
     n_all = np.zeros(gx.size, np.int64)
+    # within the quarter spacing: all returns, those at a crown's height, the highest; within
+    # the wide reach: all returns and those at a crown's height
+    n_close = np.zeros(gx.size, np.int64)
+    k_close = np.zeros(gx.size, np.int64)
+    top_close = np.zeros(gx.size)
+    n_wide = np.zeros(gx.size, np.int64)
+    k_wide = np.zeros(gx.size, np.int64)
     hts = np.full(gx.size, np.nan)
     xs, ys = gx.copy(), gy.copy()
+    h_dom = np.broadcast_to(np.asarray(dominant_height, float), gx.shape)
     if gx.size and points is not None and len(points[0]):
         px, py, ph = (np.asarray(a) for a in points)
-        thr = max(float(min_height), SUPPRESSED_HEIGHT * float(dominant_height))
+        thrs = np.maximum(float(min_height), SUPPRESSED_HEIGHT * h_dom)
         # only the points near a position matter: the tree of a tile's points is built once
         tree = cKDTree(np.c_[px, py])
         small = np.full(gx.size, float(min(spacing))) if smaller is None else \
@@ -102,21 +118,30 @@ def position_status(gaps_x, gaps_y, points, spacing, dominant_height: float,
             if not idx:
                 continue
             idx = np.asarray(idx)
+            thr = thrs[k]
             d2 = (px[idx] - gx[k]) ** 2 + (py[idx] - gy[k]) ** 2
             close = idx[d2 <= r2[k]]
+            high = ph[idx] >= thr
+            n_wide[k], k_wide[k] = idx.size, int(high.sum())
+            n_close[k] = close.size
+            k_close[k] = int((ph[close] >= thr).sum())
+            if close.size:
+                top_close[k] = float(ph[close].max())
             use = close if close.size >= SUPPRESSED_MIN_RETURNS else idx
             k_hi[k], n_all[k] = int((ph[use] >= thr).sum()), use.size
+            pick = close if k_close[k] else use
             if k_hi[k]:  # the highest return near the position: the same whichever tile's
-                top = use[int(np.argmax(ph[use]))]
+                top = pick[int(np.argmax(ph[pick]))]
                 hts[k], xs[k], ys[k] = float(ph[top]), px[top], py[top]
-    low, high = wilson_interval(k_hi, n_all)
-    status = np.where(low >= SUPPRESSED_SHARE, SUPPRESSED,
-                      np.where(high < SUPPRESSED_SHARE, MISSING, UNCERTAIN)).astype(np.int8)
-    status[n_all == 0] = MISSING  # no return at all: nothing stands there
-    # a crown at the canopy's height over the position, and no top: a neighbour's crown
-    # reaching over a missing tree looks as a tree there does (a field check)
-    over = (status == SUPPRESSED) & (hts >= OVERLAP_HEIGHT * float(dominant_height))
-    status[over] = UNCERTAIN
+    low, _ = wilson_interval(k_close, n_close)
+    crown = k_close > 0
+    status = np.full(gx.size, UNCERTAIN, np.int8)
+    under = crown & (top_close < OVERLAP_HEIGHT * h_dom)
+    status[under & (low >= SUPPRESSED_SHARE)] = SUPPRESSED
+    # (a crown at the canopy's height over the position, and no top: uncertain)
+    seen = ~crown & ((n_close >= MISSING_MIN_RETURNS)
+                     | ((k_wide == 0) & (n_wide >= WIDE_MIN_RETURNS)))
+    status[seen] = MISSING
     share = np.where(n_all > 0, k_hi / np.maximum(n_all, 1), 0.0)
     tree = (status == SUPPRESSED) | ((status == UNCERTAIN) & (share >= SUPPRESSED_SHARE))
     hts[~tree] = np.nan
@@ -124,19 +149,55 @@ def position_status(gaps_x, gaps_y, points, spacing, dominant_height: float,
     return {"status": status, "share": share, "returns": n_all, "height": hts, "x": xs, "y": ys}
 
 
+#: the tops within this x the larger spacing of an empty position are its neighbours'
+NEIGHBOUR_REACH = 1.5
+#: at least this many of them give the canopy's height over it (else the dominant height)
+NEIGHBOUR_MIN = 3
+
+
+def canopy_over(x, y, tops, spacing, dominant_height: float, larger=None) -> np.ndarray:
+    """The canopy's height over each position: the median height of the tops within
+    :data:`NEIGHBOUR_REACH` x the larger spacing of it (its neighbours at the adjacent
+    positions) when there are :data:`NEIGHBOUR_MIN` or more, else ``dominant_height``. A
+    suppressed tree is under its own neighbours, and a neighbour's crown reaching over the
+    position stands at its own height (their median: a tall neighbour does not lift it over
+    the others' crowns): an area's one dominant height misreads a young stand beside an older
+    one.
+
+    ``tops``: ``(x, y, height)``; ``larger``: each position's own larger spacing (default
+    ``max(spacing)``)."""
+    from scipy.spatial import cKDTree
+
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    out = np.full(x.size, float(dominant_height))
+    if tops is None or not x.size or not len(tops[0]):
+        return out
+    tx, ty, th = (np.asarray(a, float) for a in tops)
+    reach = np.full(x.size, float(max(spacing))) if larger is None else \
+        np.broadcast_to(np.asarray(larger, float), x.shape)
+    near = cKDTree(np.c_[tx, ty]).query_ball_point(np.c_[x, y], NEIGHBOUR_REACH * reach)
+    for k, idx in enumerate(near):
+        if len(idx) >= NEIGHBOUR_MIN:
+            out[k] = float(np.median(th[idx]))
+    return out
+
+
 def classify_gaps(st: dict, points, spacing, dominant_height: float,
-                  min_height: float = 2.0) -> dict:
+                  min_height: float = 2.0, *, tops=None) -> dict:
     """:func:`~lidartrees_gis.plantation.stocking.stocking`'s (or :func:`~lidartrees_gis.plantation.positions.stocking_by_stand`'s) result with each empty position
     classified (:func:`position_status`: the ``gaps`` table's ``status, share, returns``,
     and ``height, tree_x, tree_y`` of the trees that stand there, NaN at the others):
     ``missing`` counts only the missing
     ones, ``suppressed`` and ``uncertain`` the others, per zone too; ``uncertain_stocked`` is
     the sum of the uncertain positions' shares, and ``stocking_pct`` counts the suppressed
-    trees as stocking their positions and each uncertain position by its share."""
+    trees as stocking their positions and each uncertain position by its share. ``tops``:
+    ``(x, y, height)`` of the trees found, whose heights around each position are the canopy's
+    there (:func:`canopy_over`; without, ``dominant_height`` everywhere)."""
     gaps = st["gaps"]
     smaller = own_spacings({**st, "spacing": spacing}, gaps.zone)  # each stand's own
-    c = position_status(gaps.x, gaps.y, points, spacing, dominant_height, min_height,
-                        smaller=smaller)
+    over = canopy_over(gaps.x, gaps.y, tops, spacing, dominant_height,
+                       larger=own_spacings({**st, "spacing": spacing}, gaps.zone, larger=True))
+    c = position_status(gaps.x, gaps.y, points, spacing, over, min_height, smaller=smaller)
     st = dict(st)
     # the row's positions along the data's edge (``edge_cut``), and below
     # those just beyond the rows' ends with nothing there
@@ -194,7 +255,8 @@ def counts(status, share, returns=None) -> dict:
     tree under its neighbours' crowns is not ruled out there),
     ``uncertain_stocked`` (the uncertain positions' shares summed) and ``stocked_var``: the
     variance of the number of stocked positions among them (each uncertain one a Bernoulli of
-    its share, each missing or suppressed one a Bernoulli of the chance that its call is wrong,
+    its share, each missing or suppressed one a Bernoulli of the chance that its call is wrong:
+    that a share of no crown return among its ``returns`` is :data:`SUPPRESSED_SHARE` or more,
     :func:`stocked_probability`); ``resolved_var``: that variance over the missing and
     suppressed ones alone, the spread of the calls the stocking's interval adds to its
     unresolved positions (:func:`~lidartrees_gis.plantation.stockreport.stocking_fields`)."""
@@ -204,7 +266,8 @@ def counts(status, share, returns=None) -> dict:
     if returns is None:
         returns = np.zeros(status.size)
     n = np.asarray(returns, float)
-    p = np.where(unc, share, stocked_probability(np.round(share * n), n))
+    wrong = stocked_probability(np.zeros_like(n), n)  # a call on n returns, either way
+    p = np.where(unc, share, np.where(status == SUPPRESSED, 1.0 - wrong, wrong))
     # each term on a binary grid (2^-30): every partial sum is then exact, and a stand's
     # figures summed over its tiles in any order are those of one run
     q = np.round(share * EXACT) / EXACT
