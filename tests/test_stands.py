@@ -410,3 +410,11 @@ def test_a_young_stand_beside_an_old_one_keeps_its_trees(tmp_path):
         assert st.loc[sid, "dominant_height"] > (15 if sid == "OLD" else 4)
         assert abs(st.loc[sid, "stocking_pct"] - true_pct) < 2.0, (sid, true_pct)
     assert st.loc["YOUNG", "trees"] > 0.9 * len(b["x"][b["x"] >= OX + 60])
+    # each top's and position's canopy read from its neighbours: the same in 40 m tiles
+    _run(["trees", str(tmp_path / "farm.las"), str(tmp_path / "tiled.gpkg"), "-spacing", "3x2",
+          "-stands", str(tmp_path / "stands.gpkg"), "-tile_size", "40", "-workers", "1"])
+    tiled = pyogrio.read_dataframe(tmp_path / "tiled.gpkg", layer="stands",
+                                   read_geometry=False).set_index("stand_id")
+    cols = ["trees", "planting_positions", "missing_trees", "uncertain_positions",
+            "suppressed_trees", "stocking_pct", "stocking_pct_low", "stocking_pct_high"]
+    pd.testing.assert_frame_equal(st[cols], tiled[cols])
