@@ -59,7 +59,8 @@ def stocking_fields(spacing, azimuth: float, st: dict, *, tops: int | None = Non
     sure = st["stocked"] + sup
     point = sure + unc
     # every way the uncertain positions could go (each empty, each stocked), and as many
-    # positions beyond the rows' ends planted and missing as the stand's missing share allows;
+    # positions beyond the rows' ends planted and missing as the stand's missing share allows,
+    # and as many stocked positions empty as its extra tops allow (:func:`second_tops`);
     # widened by the 95 % spread of the missing and suppressed calls
     half = STOCKING_Z * float(np.sqrt(max(st.get("resolved_var", 0.0), 0.0)))
     low = min(max(sure - half - second_tops(st), 0.0) * e / (e + edge_missing(st)), point)
