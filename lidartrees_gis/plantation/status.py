@@ -34,7 +34,7 @@ UNCERTAIN_Z = 1.0
 #: an empty position with no crown return that close is missing when at least this many returns
 #: lie that close (the ground seen there), or when none of at least :data:`WIDE_MIN_RETURNS`
 #: within :data:`SUPPRESSED_WIDE` spacings is at a crown's height; with fewer returns it is
-#: uncertain (a data void: a tree stood at 32-40 % of such positions on the generators)
+#: uncertain (a data void: a tree stood at 50-89 % of such positions on the three families)
 MISSING_MIN_RETURNS = 2
 WIDE_MIN_RETURNS = 3
 
