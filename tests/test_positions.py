@@ -327,3 +327,21 @@ def test_the_canopy_over_a_position_is_its_neighbours_so_a_young_stand_keeps_its
     assert classify_gaps(st, (x, y, h), (3.0, 2.0), 25.0)["gaps"].status[0] == MISSING
     out = classify_gaps(st, (x, y, h), (3.0, 2.0), 25.0, tops=both)
     assert out["gaps"].status[0] == SUPPRESSED and out["suppressed"] == 1
+
+
+def test_canopy_over_is_the_median_of_every_top_within_reach():
+    """The nearest tops read at once, and a position with more of them within reach than
+    that read again in full: the median of every top within 1.5 x the larger spacing."""
+    from scipy.spatial import cKDTree
+
+    from lidartrees_gis.plantation.status import NEIGHBOUR_K, canopy_over
+
+    rng = np.random.default_rng(4)
+    tx, ty, th = rng.uniform(0, 20, 3000), rng.uniform(0, 20, 3000), rng.uniform(5, 25, 3000)
+    qx, qy = rng.uniform(0, 20, 300), rng.uniform(0, 20, 300)
+    larger = rng.choice([0.2, 3.0], 300)  # a handful of tops within reach, or hundreds
+    near = cKDTree(np.c_[tx, ty]).query_ball_point(np.c_[qx, qy], 1.5 * larger)
+    want = np.array([np.median(th[k]) if len(k) >= 3 else 30.0 for k in near])
+    assert max(len(k) for k in near) > NEIGHBOUR_K and min(len(k) for k in near) < 3
+    got = canopy_over(qx, qy, (tx, ty, th), (3.0, 2.0), 30.0, larger=larger)
+    np.testing.assert_array_equal(got, want)

@@ -109,17 +109,16 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
                            grids=grids if given else None, regions=regions if given else None)
     lowest = params.min_height  # the lowest tree plantation mode adds
     if given:  # one tree per planting position, none in the understorey
-        result, st, lowest = _one_per_position(result, st, arr, spec, params, heights, zone,
-                                               within)
+        result, st = _one_per_position(result, st, arr, spec, params, heights, zone, within)
         t = result["table"]
     # the second look at every empty position of the tile, its core's or not: the apex of a
     # tree at a position just beyond the core may stand inside it
     looks = st["looks"]
     if returns is not None and len(looks) and st.get("spacing") is not None:
         if given:  # a planted tree reaches the understorey's share of its neighbours' canopy
-            hd0 = _dominant_height(result, arr, spec, params)
             lowest = np.maximum(params.min_height, UNDERSTOREY_HEIGHT * _canopy_of(
-                looks.x, looks.y, _tops_xyh(t), st, zone, spec, hd0))
+                looks.x, looks.y, _tops_xyh(t), st, zone, spec,
+                _dominant_height(result, arr, spec, params)))
         rows, cols = gap_tops(looks.x, looks.y, returns, result["smoothed"], spec,
                               st["spacing"], top_x=t["x"], top_y=t["y"], min_height=lowest,
                               smaller=own_spacings(st, looks.zone))
@@ -375,23 +374,21 @@ def _dominant_height(result, arr, spec, params: TreeParams) -> float:
     return float(hd)
 
 
-#: plantation mode: a top lower than this share of the dominant height is the understorey
+#: plantation mode: a top lower than this share of its neighbours' canopy is the understorey
 #: (shrubs, regrowth), not a planted tree; the same share a suppressed tree must reach
 #: (:data:`lidartrees_gis.plantation.status.SUPPRESSED_HEIGHT`, kept equal by a test)
 UNDERSTOREY_HEIGHT = 0.3
 
 
 def _one_per_position(result, st, arr, spec, params: TreeParams, heights, zone, within):
-    """Plantation mode's tops: those below :data:`UNDERSTOREY_HEIGHT` x the dominant height,
-    and those whose planting position a nearer top took (a crown's second top, a flank
-    between rows), are dropped and the crowns grown again from the others (their crowns
-    take the dropped tops' cells). Returns the result, its stocking and the lowest height a
-    planted tree may have (for the trees looked for at the empty positions)."""
+    """Plantation mode's tops: those below :data:`UNDERSTOREY_HEIGHT` x their neighbours'
+    canopy (:func:`_canopy_of`), and those whose planting position a nearer top took (a
+    crown's second top, a flank between rows), are dropped and the crowns grown again from
+    the others (their crowns take the dropped tops' cells). Returns the result and its stocking."""
     from ..plantation.positions import stocking_by_stand
 
     t = result["table"]
     hd = _dominant_height(result, arr, spec, params)
-    lowest = max(params.min_height, UNDERSTOREY_HEIGHT * float(hd))
     # under its own neighbours' canopy: a young stand beside an older one keeps its trees
     # (the area's one dominant height dropped them all)
     canopy = _canopy_of(t["x"], t["y"], _tops_xyh(t), st, zone, spec, hd)
@@ -399,7 +396,7 @@ def _one_per_position(result, st, arr, spec, params: TreeParams, heights, zone, 
                                                       UNDERSTOREY_HEIGHT * canopy)
     drop = low | np.asarray(st.get("shares", np.zeros(low.size, bool)), bool)
     if not drop.any() or drop.all():
-        return result, st, lowest
+        return result, st
     keep = ~drop
     auto = result.get("auto")
     result = detect_trees(arr, spec, params, heights=heights,
@@ -411,7 +408,7 @@ def _one_per_position(result, st, arr, spec, params: TreeParams, heights, zone, 
     st = stocking_by_stand(t["x"], t["y"], arr, spec, params.spacing, zone,
                            min_height=params.min_height, within=within, grids=st["grids"],
                            masks=st.get("masks"))
-    return result, st, lowest
+    return result, st
 
 
 def _planted_separation(result, arr, spec, params: TreeParams, heights, spacing) -> dict:

@@ -153,6 +153,9 @@ def position_status(gaps_x, gaps_y, points, spacing, dominant_height: float,
 NEIGHBOUR_REACH = 1.5
 #: at least this many of them give the canopy's height over it (else the dominant height)
 NEIGHBOUR_MIN = 3
+#: the nearest tops :func:`canopy_over` reads at once (a position with more within reach is
+#: read again in full)
+NEIGHBOUR_K = 32
 
 
 def canopy_over(x, y, tops, spacing, dominant_height: float, larger=None) -> np.ndarray:
@@ -173,12 +176,20 @@ def canopy_over(x, y, tops, spacing, dominant_height: float, larger=None) -> np.
     if tops is None or not x.size or not len(tops[0]):
         return out
     tx, ty, th = (np.asarray(a, float) for a in tops)
-    reach = np.full(x.size, float(max(spacing))) if larger is None else \
-        np.broadcast_to(np.asarray(larger, float), x.shape)
-    near = cKDTree(np.c_[tx, ty]).query_ball_point(np.c_[x, y], NEIGHBOUR_REACH * reach)
-    for k, idx in enumerate(near):
-        if len(idx) >= NEIGHBOUR_MIN:
-            out[k] = float(np.median(th[idx]))
+    reach = NEIGHBOUR_REACH * (np.full(x.size, float(max(spacing))) if larger is None else
+                               np.broadcast_to(np.asarray(larger, float), x.shape))
+    tree = cKDTree(np.c_[tx, ty])
+    k = min(NEIGHBOUR_K, tx.size)  # the nearest tops at once; a fuller neighbourhood below
+    d, idx = tree.query(np.c_[x, y], k=k, distance_upper_bound=float(reach.max()) * 1.000001)
+    d, idx = d.reshape(x.size, k), idx.reshape(x.size, k)
+    inside = d <= reach[:, None]
+    h = np.where(inside, th[np.minimum(idx, tx.size - 1)], np.nan)
+    n = inside.sum(axis=1)
+    some = n >= NEIGHBOUR_MIN
+    out[some] = np.nanmedian(h[some], axis=1)
+    for j in np.nonzero(n == k)[0] if k < tx.size else ():  # more tops than k that near
+        near = tree.query_ball_point([x[j], y[j]], reach[j])
+        out[j] = float(np.median(th[near]))
     return out
 
 
