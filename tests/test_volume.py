@@ -438,7 +438,6 @@ def test_no_stand_below_nothing_and_outside_the_plots_said(recwarn):
     import shapely
 
     from lidartrees_gis.errors import DataWarning
-    from lidartrees_gis.grid import GridSpec
     from lidartrees_gis.inventory.models import AbaModel, aba_stands
     from lidartrees_gis.inventory.volume import _warn_stands
     from lidartrees_gis.plantation.stands import Stands
@@ -459,12 +458,11 @@ def test_no_stand_below_nothing_and_outside_the_plots_said(recwarn):
                      reselect=False)
     assert est["estimate"][1] == 0.0 and est["low"][1] <= 0.0 <= est["high"][1]
     assert est["estimate"][0] > 100
-    spec = GridSpec(0.0, 60.0, 20.0, 6, 3)  # two 60 x 60 m stands, side by side
     st = Stands(("A", "young"), np.array([shapely.box(0, 0, 60, 60),
                                           shapely.box(60, 0, 120, 60)]))
     cs = np.array([0, 0, 0, 1, 1, 1] * 3)
     cells = {"zq95": np.where(cs == 0, 22.0, 4.5), "cover": np.ones(18)}
-    _warn_stands(st, spec, cells, cs, pm, {"volume": (m, None, est)})
+    _warn_stands(st, np.ones(2), cells, cs, pm, {"volume": (m, None, est)})  # both flown
     said = [str(w.message) for w in recwarn if issubclass(w.category, DataWarning)]
     assert len(said) == 1 and "young (zq95 4.5; plots" in said[0], said
 
@@ -517,3 +515,70 @@ def test_stand_panel_writes_each_stands_figures():
     texts = [t.get_text().strip() for t in ax.texts]
     plt.close(fig)
     assert texts == ["250 (230-271)", "101 (81-121)"]
+
+
+def test_a_flight_edge_across_stands_and_a_plot(farm, tmp_path, capsys):
+    """The flight ends across the farm's lower stands (half of each flown): each stand's
+    covered share is said, the cells the edge leaves less than half covered are not predicted,
+    the tree method's m³/ha is that of the flown part (not halved by the unflown one), and a
+    plot the edge crosses is refused."""
+    import geopandas as gpd
+    import laspy
+    import rasterio
+    import shapely
+
+    d, truth, _ = farm
+    cut = 7952055.0  # the lower stands span 7952000-7952110
+    las = laspy.read(d / "farm.laz")
+    part = laspy.LasData(las.header)
+    part.points = las.points[np.asarray(las.y) >= cut]
+    part.write(tmp_path / "cut.laz")
+    pl = gpd.read_file(d / "plots.gpkg")
+    below = pl.geometry.y < cut + 11.28
+    assert below.sum() == 1  # plot 1, wholly in the unflown part
+    pl[~below].to_file(tmp_path / "plots.gpkg")
+    out = tmp_path / "v.gpkg"
+    a = _args(d, out, "-volume_equation", EQ, "-approach", "both", "-resamples", "30")
+    a[1], a[2] = str(tmp_path / "cut.laz"), str(tmp_path / "plots.gpkg")
+    capsys.readouterr()
+    assert main(a) == 0
+    said = [ln for ln in capsys.readouterr().err.splitlines() if "covered by the points" in ln]
+    assert len(said) == 1 and "T1 (51 %)" in said[0], said  # once, not by each approach
+    s = gpd.read_file(out, layer="stands")
+    lower = s["stand_id"].isin(["T1", "T2", "T3"]).to_numpy()
+    assert lower.sum() == 3
+    # half flown, to a 2 m coverage square
+    assert np.all((s["data_cover_pct"][lower] >= 50) & (s["data_cover_pct"][lower] <= 52.5))
+    assert np.all(s["data_cover_pct"][~lower] == 100)
+    true = np.asarray(truth["stands"]["volume_m3_ha"])
+    err = np.abs(s["volume_trees_m3_ha"].to_numpy() / true - 1)
+    assert err[lower].max() < 0.08, err  # the unflown half counted as empty: -0.5
+    report = json.loads((tmp_path / "v_report.json").read_text())
+    with rasterio.open(tmp_path / "v_volume.tif") as r:
+        v = r.read(1, masked=True)
+        rows = np.array([r.xy(i, 0)[1] for i in range(r.height)])
+    # the 20 m row of cells 7952040-60 holds a quarter of a row's returns: not predicted;
+    # the rows above it are
+    edge = np.abs(rows - 7952050) < 1
+    assert edge.sum() == 1 and v[edge].mask.all()
+    above = rows > 7952060
+    assert (~v[above].mask).all()
+    # the row's cells centred in a stand: 16, one of them on the T1-T2 border (in neither)
+    assert report["metrics"]["cells_left_out"] == 15
+    # a plot an edge crosses within the points' extent (a notch of the flight's outline):
+    # refused by name with its cover
+    x, y = np.asarray(las.x), np.asarray(las.y)
+    notch = laspy.LasData(las.header)
+    notch.points = las.points[~((x < 412060) & (y < 7952100))]
+    notch.write(tmp_path / "notch.laz")
+    crossing = gpd.GeoDataFrame({"parcela": [1]}, geometry=[shapely.Point(412060.0, 7952080.0)],
+                                crs=pl.crs)
+    gpd.GeoDataFrame(gpd.pd.concat([pl[~below], crossing], ignore_index=True),
+                     crs=pl.crs).to_file(tmp_path / "crossing.gpkg")
+    a[1], a[2] = str(tmp_path / "notch.laz"), str(tmp_path / "crossing.gpkg")
+    out2 = tmp_path / "v2.gpkg"
+    a[3] = str(out2)
+    a.append("-q")
+    capsys.readouterr()
+    line = _bad(capsys, a, tmp_path, out2)
+    assert re.search(r"1 plots less than 80 % covered by the points: 1 \((4|5)\d %\)", line), line

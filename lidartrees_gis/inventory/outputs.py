@@ -26,6 +26,7 @@ FIELD_DOCS = {
     "predicted_m3_ha": "volume the model predicts for the plot (m³/ha)",
     "residual_m3_ha": "measured - predicted (m³/ha)",
     "loo_predicted_m3_ha": "volume predicted by the model fitted without this plot (m³/ha)",
+    "data_cover_pct": "% of the stand the points cover (its m³/ha is that of this part)",
     "dap_cm": "DAP (cm) from the tree's height", "volume_m3": "tree volume (m³)",
 }
 
@@ -99,6 +100,10 @@ def build(area, plots, stands, meas, pm, plot_stand, res_aba, res_trees, spec, c
                         "n_plots": np.bincount(plot_stand[plot_stand >= 0],
                                                minlength=len(ids)),
                         "n_plots_model": len(plots)})
+    if r.get("stand_cover") is not None:  # each stand's share the points cover
+        sdf["data_cover_pct"] = np.round(100 * np.asarray(r["stand_cover"], float), 1)
+    if r.get("coverage") is not None:
+        report["metrics"]["cells_left_out"] = int(r["cells_left_out"])
     vol_grid = None
     for m in CANDIDATES:
         pdf[m] = np.round(pm[m], 4)

@@ -26,6 +26,23 @@ from ..grid import GridSpec
 from ..progress import SubProgress, as_progress
 from .metrics import METRICS, RETURNS, group_metrics
 
+#: side of the squares whose returns tell where the points cover the ground (m, about): a
+#: metric cell's share of them holding a return is its coverage (a flight's edge, a void)
+COVER_SIDE = 2.0
+
+
+def cover_split(res: float) -> int:
+    """Squares per side of a metric cell of ``res`` m that :func:`area_metrics` reads its
+    coverage on (:data:`COVER_SIDE` m squares, one at least)."""
+    return max(1, int(round(res / COVER_SIDE)))
+
+
+def cover_spec(cells: GridSpec) -> GridSpec:
+    """The grid of coverage squares over the metric cells ``cells``."""
+    k = cover_split(cells.res)
+    return GridSpec(cells.left, cells.top, cells.res / k, cells.width * k, cells.height * k,
+                    cells.crs)
+
 
 @dataclass(frozen=True)
 class MetricOptions:
@@ -97,11 +114,25 @@ def tile_heights(tile, area, plan, surface: SurfaceOptions, task: HeightTask, su
         m = task.options.compute(hag, (row - r0) * w + (col - c0), (r1 - r0) * w, first)
         out["cells"] = (r0, c0, np.stack([m[k].reshape(r1 - r0, w) for k in METRICS])
                         .astype(np.float32))
+        out["occupied"] = _occupied(task.cells, x, y, r0, r1, c0, c1)
     for k, zones in enumerate(task.zones):
         pi, zi = zones.pairs(x, y)
         out["zones"][k] = (zi, hag[pi].astype(np.float64),
                            None if first is None else first[pi])
     return out
+
+
+def _occupied(cells: GridSpec, x, y, r0, r1, c0, c1):
+    """``(row, col, bool array)``: the coverage squares (:func:`cover_spec`) of the metric
+    cells ``r0:r1, c0:c1`` that hold one of the returns ``x, y``."""
+    k = cover_split(cells.res)
+    sub = cover_spec(cells)
+    row, col = sub.cell_index(x, y, closed_top=True)
+    h, w = (r1 - r0) * k, (c1 - c0) * k
+    row, col = np.clip(row - r0 * k, 0, h - 1), np.clip(col - c0 * k, 0, w - 1)
+    occ = np.zeros((h, w), bool)
+    occ[row, col] = True
+    return r0 * k, c0 * k, occ
 
 
 def _aligned_plan(plan, area, cells: GridSpec | None, tiling: TilingOptions):
@@ -122,6 +153,8 @@ def area_metrics(area, *, cells_res=None, zones=(), options: MetricOptions | Non
     Returns
     -------
     dict with ``cells``: ``(GridSpec, (len(METRICS), H, W) float32 array)`` or None;
+    ``occupied``: ``(GridSpec, bool array)`` of the coverage squares (:func:`cover_spec`)
+    holding a return, and ``coverage``: each cell's share of them (H, W), or None;
     ``zones``: per zone set, a dict of metric arrays (one value a zone); ``points``: returns
     read; ``res``: the DTM's cell size; ``tiles``.
     """
@@ -132,6 +165,8 @@ def area_metrics(area, *, cells_res=None, zones=(), options: MetricOptions | Non
     cells = None if cells_res is None else GridSpec.from_bounds(*area.extent, cells_res,
                                                                 crs=area.crs, closed_top=True)
     grid = None if cells is None else np.full((len(METRICS), *cells.shape), np.nan, np.float32)
+    sub = None if cells is None else cover_spec(cells)
+    occupied = None if cells is None else np.zeros(sub.shape, bool)
     gathered = [[] for _ in zones]
     points = 0
     with runner_for(area, tiling) as runner:
@@ -150,6 +185,8 @@ def area_metrics(area, *, cells_res=None, zones=(), options: MetricOptions | Non
                 r0, c0, arr = r["cells"]
                 win = grid[:, r0:r0 + arr.shape[1], c0:c0 + arr.shape[2]]
                 np.copyto(win, arr, where=np.isfinite(arr))
+                q0, p0, occ = r["occupied"]
+                occupied[q0:q0 + occ.shape[0], p0:p0 + occ.shape[1]] |= occ
             for k, z in enumerate(r["zones"]):
                 if z is not None and z[0].size:
                     gathered[k].append(z)
@@ -167,4 +204,9 @@ def area_metrics(area, *, cells_res=None, zones=(), options: MetricOptions | Non
             idx, hag, first = np.empty(0, np.int64), np.empty(0), None
         zone_metrics.append(options.compute(hag, idx, len(zs), first))
     prog.update(1.0, "metrics")
-    return {**result, "cells": None if cells is None else (cells, grid), "zones": zone_metrics}
+    coverage = None
+    if cells is not None:
+        k = cover_split(cells.res)
+        coverage = occupied.reshape(cells.height, k, cells.width, k).mean(axis=(1, 3))
+    return {**result, "cells": None if cells is None else (cells, grid), "zones": zone_metrics,
+            "occupied": None if cells is None else (sub, occupied), "coverage": coverage}

@@ -38,6 +38,11 @@ APPROACHES = ("aba", "trees", "both")
 #: below this leave-one-out R² the volume model is said to predict its plots poorly
 MIN_LOO_R2 = 0.5
 ESTIMATORS = ("eblup", "model")
+#: a metric cell less covered by the returns (its share of squares holding one,
+#: :func:`~.tiles.cover_split`) is not predicted: a flight's edge or a void
+MIN_CELL_COVER = 0.5
+#: a plot less covered than this is refused (its metrics are those of a part of it)
+MIN_PLOT_COVER = 0.8
 #: plot layer fields taken as the plot's measured volume (m³/ha) when there is no tree table
 PLOT_VOLUME_FIELDS = ("volumem3ha", "volumeha", "volha", "vtccha", "volume", "vol")
 
@@ -121,26 +126,76 @@ def _cell_res(options: VolumeOptions, plots) -> float:
     return float(options.res)
 
 
-def _cells(grid_spec, grid, stand_zones):
-    """The cells' metrics as flat arrays and each cell's stand (by its centre)."""
+def _cells(grid_spec, grid, stand_zones, covered):
+    """The cells' metrics as flat arrays (NaN where not ``covered``: not predicted) and each
+    cell's stand (by its centre)."""
     from .metrics import METRICS
 
     rows, cols = np.indices(grid_spec.shape)
     cx, cy = grid_spec.xy(rows.ravel(), cols.ravel())
     stand = stand_zones.members(cx, cy)
-    metrics = {k: grid[i].ravel().astype(np.float64) for i, k in enumerate(METRICS)}
+    keep = np.asarray(covered, bool).ravel()
+    metrics = {k: np.where(keep, grid[i].ravel().astype(np.float64), np.nan)
+               for i, k in enumerate(METRICS)}
     return metrics, stand
 
 
+def cover_shares(sub, occupied, geoms) -> np.ndarray:
+    """Each polygon's share of its coverage squares (those whose centre it holds; the one
+    under its representative point when it holds none) that hold a return: 1 where the
+    points cover it, about 0.4 where a flight's edge crosses it at 40 %."""
+    import shapely
+    from rasterio.features import rasterize
+    from rasterio.windows import Window, transform as wtransform
+
+    out = np.full(len(geoms), np.nan)
+    for k, g in enumerate(geoms):
+        x0, y0, x1, y1 = shapely.bounds(g)
+        r0, c0 = (int(v) - 1 for v in sub.cell_index(x0, y1))  # and a square around
+        r1, c1 = (int(v) + 1 for v in sub.cell_index(x1, y0))
+        # the squares beyond the grid (beyond the points' extent) hold no return
+        occ = np.zeros((r1 - r0 + 1, c1 - c0 + 1), bool)
+        a0, a1 = max(r0, 0), min(r1, sub.height - 1)
+        b0, b1 = max(c0, 0), min(c1, sub.width - 1)
+        if a1 >= a0 and b1 >= b0:
+            occ[a0 - r0:a1 - r0 + 1, b0 - c0:b1 - c0 + 1] = occupied[a0:a1 + 1, b0:b1 + 1]
+        win = Window(c0, r0, c1 - c0 + 1, r1 - r0 + 1)
+        inside = rasterize([(g, 1)], out_shape=occ.shape, fill=0,
+                           transform=wtransform(win, sub.transform), dtype=np.uint8) > 0
+        # a polygon smaller than a square: the square under its representative point
+        out[k] = float(occ[inside].mean()) if inside.any() else \
+            float(occ[tuple(int(v) - o for v, o in zip(sub.cell_index(
+                *g.representative_point().coords[0]), (r0, c0)))])
+    return out
+
+
+def _check_plot_cover(pl, occupied) -> None:
+    """Refuse plots the returns cover less than :data:`MIN_PLOT_COVER` (a flight's edge or a
+    gap between flight lines crosses them: their metrics are those of a part)."""
+    share = cover_shares(*occupied, pl.geoms)
+    thin = np.flatnonzero(~(share >= MIN_PLOT_COVER))
+    if thin.size:
+        names = [f"{pl.ids[i]} ({100 * share[i]:.0f} %)" for i in thin]
+        raise InputError(f"PLOTS: {pl.source}: {thin.size} plots less than "
+                         f"{100 * MIN_PLOT_COVER:.0f} % covered by the points: "
+                         f"{listing(names, 8)}; at the flight's edge? drop them")
+
+
 def _tree_approach(input, plots, stands_src, stand_id, stands, trees, equation, read, tiling,
-                   surface, progress) -> dict:
-    """Detected trees' DAP and volume, their sums per plot and stand, the ratio estimate."""
+                   surface, progress, flown=None) -> dict:
+    """Detected trees' DAP and volume, their sums per plot and stand, the ratio estimate.
+    ``flown``: each stand's share the points cover (its trees' volume per ha is that of its
+    flown part, as the area-based figure is)."""
     from ..als.chain import trees_run
     from ..als.surfaces import SurfaceOptions
     from .field import fit_schumacher
 
-    r = trees_run(input, None, read=read, tiling=tiling, stands=stands_src, stand_id=stand_id,
-                  surface=SurfaceOptions(dtm=surface.dtm), progress=progress)
+    with warnings.catch_warnings():  # the run's stands cover is said once, by the caller
+        warnings.filterwarnings("ignore", message=r"-stands: \d+ of \d+ stand\(s\) are less "
+                                "than", category=DataWarning)
+        r = trees_run(input, None, read=read, tiling=tiling, stands=stands_src,
+                      stand_id=stand_id, surface=SurfaceOptions(dtm=surface.dtm),
+                      progress=progress)
     tops = r["layers"]["tree_tops"]
     h = tops["height"].to_numpy(float)
     measured = ~trees["ht_estimated"]
@@ -155,7 +210,10 @@ def _tree_approach(input, plots, stands_src, stand_id, stands, trees, equation, 
     plot_count = plots.zones.counts(tx, ty) / (plots.area_m2 / 1e4)
     sid = Zones.of_polygons(stands.geoms).members(tx, ty)
     sok = sid >= 0
-    stand_det = np.bincount(sid[sok], weights=vol[sok], minlength=len(stands)) / stands.area_ha
+    share = np.ones(len(stands)) if flown is None else np.asarray(flown, float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        stand_det = np.bincount(sid[sok], weights=vol[sok], minlength=len(stands)) / \
+            (stands.area_ha * np.where(share > 0, share, np.nan))
     return {"tops": tops.assign(dap_cm=dap, volume_m3=vol), "detected_m3_ha": plot_det,
             "detected_trees_ha": plot_count, "stand_detected_m3_ha": stand_det,
             "dap_height": {"form": "ln(DAP) = a + b ln(H)", "a": a, "b": b, "s2": s2,
@@ -213,21 +271,13 @@ def _warn_density(table_ha, detected_ha, plots) -> None:
             "m² a plot): check -plot_radius or the plots' polygons"), stacklevel=3)
 
 
-def _warn_stands(st, spec, cm, cell_stand, pm, res_aba) -> None:
-    """Warn (the run goes on) of stands the points do not cover (their m³/ha is their flown
-    part's) and of stands whose metrics lie beyond the plots' (the model extrapolates)."""
-    import shapely
-    from rasterio.features import shapes
-
+def _warn_stands(st, share, cm, cell_stand, pm, res_aba) -> None:
+    """Warn (the run goes on) of stands the points do not cover (``share``, from
+    :func:`cover_shares`: their m³/ha is their flown part's) and of stands whose metrics lie
+    beyond the plots' (the model extrapolates)."""
     from ..plantation.stands import MIN_DATA_COVER_PCT
 
-    flown = np.isfinite(cm["cover"]).reshape(spec.shape)
-    parts = [shapely.geometry.shape(g) for g, v in shapes(flown.astype(np.uint8), mask=flown,
-                                                           transform=spec.transform)]
-    cover = shapely.union_all(parts) if parts else shapely.Polygon()
-    with np.errstate(invalid="ignore", divide="ignore"):
-        share = 100.0 * shapely.area(shapely.intersection(st.geoms, cover)) / \
-            shapely.area(st.geoms)
+    share = 100.0 * np.asarray(share, float)
     thin = [f"{st.ids[k]} ({share[k]:.0f} %)" for k in np.flatnonzero(
         ~(share >= MIN_DATA_COVER_PCT))]
     if thin:
@@ -333,9 +383,15 @@ def _estimate(input, plots, output, stands, trees_table, plot_id, plot_radius, s
     if empty:
         raise InputError(f"PLOTS: {len(empty)} plots hold no return above -min_height: "
                          f"{listing(empty, 8)}; outside the flight, or in a clearing?")
+    _check_plot_cover(pl, r["occupied"])
     spec, grid = r["cells"]
     stand_zones = Zones.of_polygons(st.geoms)
-    cm, cell_stand = _cells(spec, grid, stand_zones)
+    covered = r["coverage"] >= MIN_CELL_COVER
+    cm, cell_stand = _cells(spec, grid, stand_zones, covered)
+    flown = cover_shares(*r["occupied"], st.geoms)
+    r = {**r, "stand_cover": flown,
+         "cells_left_out": int(((cell_stand >= 0) & np.isfinite(grid[0].ravel())
+                                & ~covered.ravel()).sum())}
     cx = np.array([g.representative_point().x for g in pl.geoms])
     cy = np.array([g.representative_point().y for g in pl.geoms])
     plot_stand = stand_zones.members(cx, cy)
@@ -348,14 +404,14 @@ def _estimate(input, plots, output, stands, trees_table, plot_id, plot_radius, s
         prog.update(0.6, "trees")
         res_trees = _tree_approach(input, pl, stands, stand_id, st, meas["trees"],
                                    options.equation, read, tiling, surface,
-                                   SubProgress(prog, 0.6, 0.9))
+                                   SubProgress(prog, 0.6, 0.9), flown)
         res_trees["stands"] = ratio_stands(y, res_trees["detected_m3_ha"],
                                            res_trees["stand_detected_m3_ha"], plot_stand,
                                            plot_noise=meas["figures"].get("sampling_var_m3_ha"),
                                            resamples=options.resamples, seed=options.seed,
                                            stand_effect=options.estimator == "eblup")
         _warn_density(meas["figures"].get("trees_ha"), res_trees["detected_trees_ha"], pl)
-    _warn_stands(st, spec, cm, cell_stand, pm, res_aba)
+    _warn_stands(st, flown, cm, cell_stand, pm, res_aba)
     prog.update(0.92, "writing")
     layers, report, vol_grid = outs.build(area, pl, st, meas, pm, plot_stand, res_aba, res_trees,
                                           spec, cm, options, metric, r)
