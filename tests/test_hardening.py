@@ -465,3 +465,26 @@ def test_disk_full_is_one_line_and_leaves_no_part_file(small_las, tmp_path, caps
     assert main(["chm", str(small_las), str(out), "-q"]) == 1
     _one_error_line(capsys, "No space left on device")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.las"]
+
+
+def test_printed_lines_follow_a_ptbr_locale(small_las, capsys, monkeypatch):
+    """Under pt_BR the printed figures take decimal commas (a list's values parted by
+    semicolons), as the tables do; names, paths and versions keep their points."""
+    import re
+
+    from lidartrees_gis.io.tables import decimal_commas
+
+    assert main(["info", str(small_las), "-q"]) == 0
+    plain = capsys.readouterr().out
+    monkeypatch.setenv("LC_ALL", "pt_BR.UTF-8")
+    assert main(["info", str(small_las), "-q"]) == 0
+    out = capsys.readouterr().out
+    dens = re.search(r"density_pts_m2: ([\d.]+)", plain).group(1)
+    assert f"density_pts_m2: {dens.replace('.', ',')}\n" in out
+    bounds = re.search(r"^bounds: (.*)$", plain, re.M).group(1).split(", ")
+    assert len(bounds) >= 4 and f"bounds: {'; '.join(b.replace('.', ',') for b in bounds)}" in out
+    assert decimal_commas("stand T1: 624.9 m³/ha ±10.2 % (561.0-688.8), ln zq50 -0.0799") == \
+        "stand T1: 624,9 m³/ha ±10,2 % (561,0-688,8), ln zq50 -0,0799"
+    for keep in ("/data/2.5/v_1.2.gpkg", "lidartrees_gis 0.21.1", "C:\\voo\\3.5\\a.laz",
+                 "2.5e-3", "farm.laz"):
+        assert decimal_commas(keep) == keep

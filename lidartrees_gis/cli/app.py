@@ -112,24 +112,33 @@ def _tidy(v, key: str = ""):
     return v
 
 
-def result_lines(res: dict, prefix: str = "") -> list:
+def result_lines(res: dict, prefix: str = "", sep: str = ", ") -> list:
     """A command's result as plain ``key: value`` lines: nested dicts as ``key.sub: value``,
-    lists of values joined by commas, lists of dicts as ``key.1.sub: value``; None left out."""
+    lists of values joined by ``sep``, lists of dicts as ``key.1.sub: value``; None left
+    out."""
     out = []
     for k, v in res.items():
         key = f"{prefix}{k}"
         if v is None or k == "table":
             continue
         if isinstance(v, dict):
-            out += result_lines(v, key + ".")
+            out += result_lines(v, key + ".", sep)
         elif isinstance(v, (list, tuple)) and v and all(isinstance(x, dict) for x in v):
             for i, x in enumerate(v, 1):
-                out += result_lines(x, f"{key}.{i}.")
+                out += result_lines(x, f"{key}.{i}.", sep)
         elif isinstance(v, (list, tuple)):
-            out.append(f"{key}: {', '.join(str(x) for x in v)}")
+            out.append(f"{key}: {sep.join(str(x) for x in v)}")
         else:
             out.append(f"{key}: {v}")
     return out
+
+
+def _for_reader(text: str) -> str:
+    """A printed line in the locale's numbers: decimal commas in pt_BR (as the tables write
+    them, :mod:`lidartrees_gis.io.tables`), else as it is."""
+    from ..io.tables import decimal_commas, is_ptbr
+
+    return decimal_commas(text) if is_ptbr() else text
 
 
 def _print_result(name, res, as_json):
@@ -140,13 +149,16 @@ def _print_result(name, res, as_json):
         return
     if not isinstance(res, dict):
         return
+    from ..io.tables import is_ptbr
+
     res = {k: (v if k == "table" else _tidy(v, k)) for k, v in res.items()}
     if name == "info":
         res = {k: v for k, v in res.items() if k != "crs_wkt"}
-    for line in result_lines(res):
-        print(line)
+    # pt_BR: decimal commas, so a list's values are parted by semicolons
+    for line in result_lines(res, sep="; " if is_ptbr() else ", "):
+        print(_for_reader(line))
     if "table" in res:
-        print(res["table"])
+        print(_for_reader(str(res["table"])))
 
 
 def _join_dash_values(argv, ap):
@@ -220,7 +232,8 @@ def main(argv=None) -> int:
 
     def _show(message, category, filename, lineno, file=None, line=None):
         if issubclass(category, DataWarning):
-            print(f"lidartrees {cmd.name}: warning: {message}", file=sys.stderr)
+            text = f"lidartrees {cmd.name}: warning: {message}"
+            print(text if args.progress_lines else _for_reader(text), file=sys.stderr)
 
     warnings.showwarning = _show
     warnings.simplefilter("default", DataWarning)
@@ -244,7 +257,8 @@ def main(argv=None) -> int:
             progress.close()
         if getattr(exc, "result", None) and not args.progress_lines:  # written without some tiles
             _print_result(cmd.name, exc.result, as_json)
-        print(f"lidartrees {cmd.name}: error: {_error_text(exc)}", file=sys.stderr)
+        text = f"lidartrees {cmd.name}: error: {_error_text(exc)}"
+        print(text if args.progress_lines else _for_reader(text), file=sys.stderr)
         return 1
     finally:
         if hasattr(progress, "close"):

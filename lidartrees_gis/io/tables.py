@@ -14,6 +14,7 @@ from __future__ import annotations
 import datetime
 import math
 import os
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -39,6 +40,16 @@ def locale_name(environ=None) -> str:
 def is_ptbr(environ=None) -> bool:
     """Whether the locale is Brazilian Portuguese (``pt_BR.UTF-8``, ``pt_BR``, ``pt-BR``)."""
     return locale_name(environ).lower().replace("-", "_").startswith("pt_br")
+
+
+#: a number's decimal point, not one inside a name, a path or a version (``v_1.2.gpkg``, 0.21.1)
+_DECIMAL_POINT = re.compile(r"(?<![\w./\\])(-?\d+)\.(\d+)(?![\w./\\])")
+
+
+def decimal_commas(text: str) -> str:
+    """``text`` with each number's decimal point written as a comma (pt-BR: ``92,4 %
+    (90,1-94,0)``); names, paths and versions keep theirs."""
+    return _DECIMAL_POINT.sub(r"\1,\2", text)
 
 
 @dataclass(frozen=True)
