@@ -329,6 +329,9 @@ def _area_grids(runner, area, p: TreeParams, plan: AreaPlan, surface, stands, pr
         return {"all": None}
     x, y, z = (np.concatenate([np.asarray(r[k]) for r in found]) for k in ("x", "y", "zone"))
     from ..plantation.positions import add_anchors
+    from ..plantation.scan import merge_waves
+
+    scan = merge_waves([r.get("scan") for r in found])  # the returns' scan lines
     from .tile import number_regions, tile_canopy_spectra
 
     def spectra(keys):  # -spacing auto, stands whose tops show no lattice: their canopies
@@ -342,8 +345,8 @@ def _area_grids(runner, area, p: TreeParams, plan: AreaPlan, surface, stands, pr
         return {k: stand_spectrum([p for p, _ in v], [q for _, q in v])
                 for k, v in parts.items()}
 
-    def fits(jobs, spacing, cell):  # one stand's lattice per task, on the run's workers
-        out = list(runner.map(fit_lattice, jobs, (spacing, cell), ordered=True,
+    def fits(jobs, spacing, cell, scan):  # one stand's lattice per task, on the run's workers
+        out = list(runner.map(fit_lattice, jobs, (spacing, cell, scan), ordered=True,
                               label="lattice fit"))
         if len(out) != len(jobs):  # -on_error skip left one out: no lattice is left unsaid
             raise RuntimeError(f"{len(jobs) - len(out)} of {len(jobs)} stands' lattice fits "
@@ -351,7 +354,7 @@ def _area_grids(runner, area, p: TreeParams, plan: AreaPlan, surface, stands, pr
         return out
 
     grids = fit_stand_grids(x, y, z if stands is not None else None, p.spacing, whole=True,
-                            cell=plan.res, spectra=spectra, fits=fits)
+                            cell=plan.res, spectra=spectra, fits=fits, scan=scan)
     # where each stand's row and plant numbers start: made once here, for every tile
     zones = [-1] + ([] if stands is None else list(range(len(stands))))
     return add_anchors(grids, number_regions(stands, area.extent), plan.res, zones)

@@ -168,17 +168,29 @@ def tile_first_tops(tile: Tile, area, params: TreeParams, plan: AreaPlan,
     in the tile's core (before plantation mode keeps one per position), with their stand
     index: ``{"x", "y", "zone"}``. Each stand's lattice is fitted on all of them
     (:func:`lidartrees_gis.plantation.positions.fit_stand_grids`), as one file's run fits it on its
-    own, so the tiles count positions on one lattice per stand."""
+    own, so the tiles count positions on one lattice per stand. With ``-spacing auto``,
+    ``scan``: the scan lines' waves in the density of the core's returns
+    (:func:`lidartrees_gis.plantation.scan.scan_waves`)."""
     from ..catalog.source import shared_cache
     from ..plantation.positions import top_zones
+    from ..plantation.scan import scan_waves
     from ..plantation.stands import zones
 
     # the surfaces are left in the run's shared folder (a run of several tiles on this
     # machine) for :func:`tile_trees`, which then need not compute them again
     cache = shared_cache()
+    auto = isinstance(params.spacing, str)
     s = box_surfaces(area, tile.box, plan.res, surface, stats=plan.stats, whole_dtm=False,
-                     keep_points=cache is not None and params.looks_at_planting,
+                     keep_points=auto or (cache is not None and params.looks_at_planting),
                      progress=progress)
+    scan = None
+    if auto and s is not None and s.get("points_above_ground") is not None:
+        px, py = s["points_above_ground"][:2]
+        c, b = tile.core, tile.box  # the core (unbounded at the area's edges) in the data
+        scan = scan_waves(px, py, (max(c[0], b[0]), max(c[1], b[1]), min(c[2], b[2]),
+                                   min(c[3], b[3])))
+        if not (cache is not None and params.looks_at_planting):
+            s = {k: v for k, v in s.items() if k != "points_above_ground"}
     if cache is not None and s is not None:
         cache.put_value(_surfaces_key(tile, plan, params), s, keep=True)
     if s is None:
@@ -188,7 +200,7 @@ def tile_first_tops(tile: Tile, area, params: TreeParams, plan: AreaPlan,
     x, y = np.asarray(t["x"])[core], np.asarray(t["y"])[core]
     zone = zones(stands, s["spec"]) if stands is not None else None
     z = top_zones(x, y, zone, s["spec"]) if zone is not None else np.full(x.size, -1, np.int64)
-    return {"x": x, "y": y, "zone": z}
+    return {"x": x, "y": y, "zone": z, "scan": scan}
 
 
 def tile_canopy_spectra(tile: Tile, area, params: TreeParams, plan: AreaPlan,

@@ -35,7 +35,7 @@ def _canonical(tx, ty):
 
 def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None = None, *,
                     zones=None, whole: bool = False, cell: float = 0.0, spectra=None,
-                    fits=None) -> dict:
+                    fits=None, scan=None) -> dict:
     """The planting lattice of every stand: ``{zone: PlantingGrid or None}``, and ``"all"``
     (the lattice of all the tops: that of an area without stands, and of a stand with too few
     tops of its own) where one needs it or ``whole`` asks for it.
@@ -57,11 +57,15 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
     (:func:`~lidartrees_gis.plantation.canopy_lattice.canopy_planting`) when there is one;
     where its canopy shows rows but no plants along them, ``("why", key)`` says so in words
     (:func:`~lidartrees_gis.plantation.canopy_lattice.canopy_rows_only`). ``fits``:
-    a function ``fits(jobs, spacing, cell)`` that gives :func:`fit_lattice` of each ``(x, y)``
-    of ``jobs``, in order (a run's workers, one stand each); by default fitted here in turn.
+    a function ``fits(jobs, spacing, cell, scan)`` that gives :func:`fit_lattice` of each
+    ``(x, y)`` of ``jobs``, in order (a run's workers, one stand each); by default fitted here
+    in turn. ``scan``: the returns' scan waves (:func:`~lidartrees_gis.plantation.scan.
+    merge_waves` of the tiles'): a lattice with their period along its rows is the scanner's;
+    a stand whose tops show no other has none, and ``("why", key)`` says so.
     """
+    from .scan import scan_period
     from .canopy_lattice import canopy_planting, canopy_rows_only
-    from .rows import choose
+    from .rows import choose, same_rows
     from .stocking import PLANTING_MIN_TREES
 
     tx, ty = np.asarray(top_x, float), np.asarray(top_y, float)
@@ -77,7 +81,10 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
         return (tx, ty) if k == "all" else (tx[zone == k], ty[zone == k])
 
     def fit(x, y):
-        return fit_lattice((x, y), spacing, cell)
+        return fit_lattice((x, y), spacing, cell, scan)
+
+    def scanned(g):  # a lattice with the scan lines' period along its rows
+        return g is not None and scan_period(g.tree_spacing, g.azimuth, scan) is not None
 
     def enough(k):
         return tops_of(k)[0].size >= (PLANTING_MIN_TREES if auto else STAND_FIT_MIN_TOPS)
@@ -87,9 +94,16 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
         own["all"] = grid
     todo = (["all"] if (top_zone is None or whole) and grid is None else []) + \
         [k for k in keys if enough(k)]
-    found = fits([tops_of(k) for k in todo], spacing, cell) if fits is not None and todo \
-        else [fit(*tops_of(k)) for k in todo]
-    own.update(zip(todo, found))
+    found = fits([tops_of(k) for k in todo], spacing, cell, scan) if fits is not None and \
+        todo else [fit(*tops_of(k)) for k in todo]
+    # the stands whose tops showed the scanner's lattice only: none of theirs, but its rows
+    scan_only = {}
+    for k, g in zip(todo, found):
+        if isinstance(g, tuple):
+            out[("why", k)] = scan_why(g)
+            scan_only[k] = g[2]
+            g = None
+        own[k] = g
     own.update({k: None for k in keys if k not in own})
     if auto and spectra is not None:
         # where the tops show no aligned lattice: the canopy's spectrum (one more pass for
@@ -106,10 +120,22 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
                     continue
                 rows = own[k]
                 own[k] = canopy_planting(*tops_of(k), powers[k], cell)
+                if scanned(own[k]):  # the canopy's heights peak on the scan lines too
+                    own[k] = None
                 if rows is not None:
                     own[k] = choose(rows, own[k], *tops_of(k))
                     continue
+                if k in scan_only and own[k] is not None:
+                    # the tops' rows hold (their plants were the scanner's): the canopy's
+                    # plants along the same rows, or none
+                    if same_rows(scan_only[k], own[k]):
+                        out.pop(("why", k), None)
+                        del scan_only[k]
+                    else:
+                        own[k] = None
                 why = None if own[k] is not None else canopy_rows_only(powers[k], cell)
+                if why and k in scan_only:  # both: the tops' period and the canopy's rows
+                    why = f"{out[('why', k)]}; {why.removeprefix('no planting lattice: ')}"
                 if why:
                     out[("why", k)] = why
 
@@ -117,6 +143,9 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
         if "all" not in out:
             if "all" not in own:
                 own["all"] = fit(tx, ty)
+                if isinstance(own["all"], tuple):
+                    out[("why", "all")] = scan_why(own["all"])
+                    own["all"] = None
             out["all"] = own["all"]
             if out["all"] is not None:
                 out[("span", "all")] = row_spans(out["all"], tx, ty)
@@ -127,22 +156,36 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
     if top_zone is None:
         return out
     for k in keys:
-        out[k] = own[k] if own[k] is not None else all_tops()
+        out[k] = own[k] if own[k] is not None or k in scan_only else all_tops()
         if out[k] is not None:
             out[("span", k)] = row_spans(out[k], *tops_of(k))
     return out
 
 
-def fit_lattice(tops, spacing, cell: float = 0.0):
+def fit_lattice(tops, spacing, cell: float = 0.0, scan=None):
     """One stand's lattice under its ``tops`` ``(x, y)``: found
     (:func:`~lidartrees_gis.plantation.stocking.detect_planting`, None where there is none) with
-    ``spacing="auto"``, else fitted at ``spacing`` ``(R, C)``."""
+    ``spacing="auto"``, else fitted at ``spacing`` ``(R, C)``. ``scan``: the returns' scan
+    waves; where the only lattice the tops show has the scan lines' period along its rows,
+    ``("scan", (plant spacing, scan period, azimuth), that lattice)`` instead of None (its
+    rows are the tops', its plants the scanner's)."""
     from .stocking import detect_planting
 
     x, y = tops
     if isinstance(spacing, str):
-        return detect_planting(x, y, cell=cell)
+        notes = {}
+        g = detect_planting(x, y, cell=cell, scan=scan, notes=notes)
+        return g if g is not None or "scan" not in notes else ("scan", notes["scan"],
+                                                                notes["scan_grid"])
     return fit_planting_grid(x, y, *spacing)
+
+
+def scan_why(found) -> str:
+    """The ``lattice`` field's words for a lattice taken for the scanner's
+    (:func:`fit_lattice`'s ``("scan", ...)``)."""
+    tree, period, az = found[1]
+    return (f"no planting lattice: the plants' period its tops show, {tree:.2f} m along rows "
+            f"at {az % 180:.0f}°, is the returns' scan lines' ({period:.2f} m along them)")
 
 
 def row_spans(grid: PlantingGrid, x, y) -> tuple:

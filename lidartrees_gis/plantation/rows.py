@@ -124,13 +124,18 @@ def fit_rows(x, y, row_spacing: float, tree_spacing: float, *, azimuths=None, fi
                         float(s[k]), tuple(float(p) for p in np.round(phases, 6)), first)
 
 
-def tree_period(dx, dy, azimuth: float, row_spacing: float, lo: float, hi: float) -> tuple:
+def tree_period(dx, dy, azimuth: float, row_spacing: float, lo: float, hi: float,
+                scan=None) -> tuple:
     """The plants' spacing along rows of ``azimuth`` (degrees) ``row_spacing`` apart: the
     period between ``lo`` and ``hi`` (m, :data:`PERIOD_STEP` relative steps) on which the
     positions concentrate most on their own rows' phases, or twice it when the positions
     concentrate on that too by :data:`HARMONIC_SHARE` (plants at period ``C`` cancel at
     ``2C``; tops at the plants and midway between them, as crowns closed along the row
-    give, concentrate at ``C / 2`` most). Returns ``(period, resultant)``."""
+    give, concentrate at ``C / 2`` most). ``scan``: the returns' scan waves
+    (:func:`~.scan.scan_waves`); a period that is theirs along these rows
+    (:func:`~.scan.scan_period`) is not a candidate. Returns ``(period, resultant)``."""
+    from .scan import scan_period
+
     a = np.radians(azimuth)
     _, _, rows = _across(dx, dy, np.array([[a]]), row_spacing)
     pu = dx * np.sin(a) + dy * np.cos(a)
@@ -146,22 +151,29 @@ def tree_period(dx, dy, azimuth: float, row_spacing: float, lo: float, hi: float
                 best, r = float(block[k]), float(rr[k])
         return best, r
 
-    best, r = peak(np.exp(np.arange(np.log(lo), np.log(hi), PERIOD_STEP)))
+    def periods(a, b):
+        c = np.exp(np.arange(np.log(a), np.log(b), PERIOD_STEP))
+        if scan is not None and len(scan):
+            c = c[[scan_period(float(p), azimuth, scan) is None for p in c]]
+        return c if c.size else np.array([a])
+
+    best, r = peak(periods(lo, hi))
     while 2.0 * best <= hi:
-        two = peak(np.exp(np.arange(np.log(1.97 * best), np.log(2.03 * best), PERIOD_STEP)))
+        two = peak(periods(1.97 * best, 2.03 * best))
         if two[1] < HARMONIC_SHARE * r:
             break
         best, r = two
     return best, r
 
 
-def find_rows(x, y, dx, dy, cell: float = 0.0):
+def find_rows(x, y, dx, dy, cell: float = 0.0, scan=None):
     """Rows with their own phases under positions whose lattice shows no period along the
     rows: the direction across which the positions are most periodic at a row spacing
     (:data:`ROW_PERIODS`) gives the rows, :func:`tree_period` the plants' spacing along
-    them (:data:`TREE_PERIODS`, at least ``MIN_PERIOD_CELLS`` CHM cells ``cell``), and
-    :func:`fit_rows` the lattice. ``dx, dy``: a sample of the positions about their mean,
-    for the periods. Returns a :class:`~.lattice.PlantingGrid` or None."""
+    them (:data:`TREE_PERIODS`, at least ``MIN_PERIOD_CELLS`` CHM cells ``cell``; not the
+    ``scan`` lines'), and :func:`fit_rows` the lattice. ``dx, dy``: a sample of the
+    positions about their mean, for the periods. Returns a :class:`~.lattice.PlantingGrid`
+    or None."""
     from .spectrum import MIN_PERIOD_CELLS, projection_peak
 
     if dx.size < 10:
@@ -174,7 +186,7 @@ def find_rows(x, y, dx, dy, cell: float = 0.0):
     b = np.radians(az)
     row = _spacing_along(dx * np.cos(b) - dy * np.sin(b), found[k][1], 0.04)
     lo = max(TREE_PERIODS[0], MIN_PERIOD_CELLS * cell)
-    tree, _ = tree_period(dx, dy, az, row, lo, TREE_PERIODS[1])
+    tree, _ = tree_period(dx, dy, az, row, lo, TREE_PERIODS[1], scan)
     sx, sy = _sample(x, y, FIT_MAX_TREES)
     return fit_rows(x, y, row, tree, azimuths=(az + np.arange(-2.0, 2.001, 0.25)) % 180.0,
                     fit_x=sx, fit_y=sy)
@@ -184,6 +196,12 @@ def find_rows(x, y, dx, dy, cell: float = 0.0):
 #: (k = 1: the same spacing; 2, 3: a harmonic; the independent generator's 3 x 2 m stands of
 #: rows with their own phases: the canopy read 2.047 and 1.021 where the tops gave 2.002)
 SAME_SPACING = {1: 0.05, 2: 0.04, 3: 0.04}
+
+
+def same_rows(a, b) -> bool:
+    """Whether two lattices have the same rows: azimuths within 1°, row spacings within 2 %."""
+    turn = abs((a.azimuth - b.azimuth + 90.0) % 180.0 - 90.0)
+    return turn <= 1.0 and abs(a.row_spacing - b.row_spacing) <= 0.02 * a.row_spacing
 
 
 def choose(rows, canopy, x, y):
@@ -200,8 +218,7 @@ def choose(rows, canopy, x, y):
     tops concentrate more."""
     if canopy is None:
         return rows
-    turn = abs((rows.azimuth - canopy.azimuth + 90.0) % 180.0 - 90.0)
-    if turn <= 1.0 and abs(rows.row_spacing - canopy.row_spacing) <= 0.02 * rows.row_spacing:
+    if same_rows(rows, canopy):
         same = any(abs(k * canopy.tree_spacing - rows.tree_spacing)
                    <= SAME_SPACING[k] * rows.tree_spacing for k in SAME_SPACING)
         return rows if same else canopy

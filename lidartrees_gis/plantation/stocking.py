@@ -376,7 +376,7 @@ def _refine_direction(dx, dy, a, row0, tree0, n: int = 3000) -> float:
 
 def detect_planting(x, y, *, min_trees: int = PLANTING_MIN_TREES,
                     min_fit: float = PLANTING_MIN_FIT, cell: float = 0.0,
-                    spectral: bool = True):
+                    spectral: bool = True, scan=None, notes: dict | None = None):
     """The planting lattice under tree tops, if they lie on one, else None.
 
     The row direction is the commonest direction to the two nearest neighbours (1° bins);
@@ -391,6 +391,12 @@ def detect_planting(x, y, *, min_trees: int = PLANTING_MIN_TREES,
     fit missed, as where closed crowns merged a share of the tops along the rows); where they
     are spread only with ``spectral`` (False gives up there at once: the defaults' look in
     every tile of a natural forest).
+
+    ``scan``: the returns' scan waves (:func:`~.scan.scan_waves`): a lattice whose plant
+    spacing is their period along its rows (:func:`~.scan.scan_period`) is the scanner's, not
+    the planting's: the rows with their own phases are looked for without that period, and
+    ``notes["scan"]`` says ``(plant spacing, scan period, azimuth)`` and ``notes["scan_grid"]``
+    gives that lattice when nothing else was found.
 
     Returns
     -------
@@ -450,18 +456,41 @@ def detect_planting(x, y, *, min_trees: int = PLANTING_MIN_TREES,
             g2 = _detect_from(x, y, dx, dy, *guess, min_fit)
             if g2 is not None and (g is None or g2.fit > g.fit):
                 g = g2
+    if g is not None and g.fit >= min_fit:
+        g = _not_scan(g, scan, notes)
     if (g is None or g.fit < min_fit) and spectral:
         # no period along the rows: rows planted each from the stand's edge (their own phases;
         # plantation mode's search only: the defaults' look in a tile of two stands would
         # take one stand's rows for the tile's)
         g2 = find_rows(x, y, dx, dy, cell)
+        if g2 is not None and _not_scan(g2, scan, notes) is None:  # again, without that period
+            g2 = find_rows(x, y, dx, dy, cell, scan)
         if g2 is not None and g2.fit * np.sqrt(x.size) >= ROWS_MIN_EVIDENCE:
-            return g2 if min(g2.row_spacing, g2.tree_spacing) >= MIN_PERIOD_CELLS * cell \
-                else None
+            if min(g2.row_spacing, g2.tree_spacing) < MIN_PERIOD_CELLS * cell:
+                return None
+            g2 = _not_scan(g2, scan, notes)
+            if g2 is not None and notes is not None:
+                notes.pop("scan", None)
+                notes.pop("scan_grid", None)
+            return g2
     if g is None or g.fit < min_fit or \
             min(g.row_spacing, g.tree_spacing) < MIN_PERIOD_CELLS * cell:
         return None
     return g
+
+
+def _not_scan(g, scan, notes):
+    """``g``, or None where its plant spacing is the ``scan`` lines' period along its rows
+    (:func:`~.scan.scan_period`; ``notes["scan"]`` then says so)."""
+    from .scan import scan_period
+
+    p = scan_period(g.tree_spacing, g.azimuth, scan)
+    if p is None:
+        return g
+    if notes is not None:
+        notes["scan"] = (float(g.tree_spacing), p, float(g.azimuth))
+        notes["scan_grid"] = g
+    return None
 
 
 def _detect_from(x, y, dx, dy, a, row0, tree0, min_fit):
