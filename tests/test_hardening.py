@@ -485,6 +485,8 @@ def test_printed_lines_follow_a_ptbr_locale(small_las, capsys, monkeypatch):
     assert len(bounds) >= 4 and f"bounds: {'; '.join(b.replace('.', ',') for b in bounds)}" in out
     assert decimal_commas("stand T1: 624.9 m³/ha ±10.2 % (561.0-688.8), ln zq50 -0.0799") == \
         "stand T1: 624,9 m³/ha ±10,2 % (561,0-688,8), ln zq50 -0,0799"
+    assert decimal_commas("spacing: 3x1.5, rows 3.5x2.5 and 3x2") == \
+        "spacing: 3x1,5, rows 3,5x2,5 and 3x2"
     for keep in ("/data/2.5/v_1.2.gpkg", "lidartrees_gis 0.21.1", "C:\\voo\\3.5\\a.laz",
-                 "2.5e-3", "farm.laz"):
+                 "2.5e-3", "farm.laz", "voo_3x1.5.laz"):
         assert decimal_commas(keep) == keep

@@ -46,9 +46,14 @@ def is_ptbr(environ=None) -> bool:
 _DECIMAL_POINT = re.compile(r"(?<![\w./\\])(-?\d+)\.(\d+)(?![\w./\\])")
 
 
+#: a planting spacing, ``3x1.5`` or ``3.5x2.5``, not inside a name
+_SPACING = re.compile(r"(?<![\w./\\])(\d+(?:\.\d+)?)x(\d+(?:\.\d+)?)(?![\w./\\])")
+
+
 def decimal_commas(text: str) -> str:
     """``text`` with each number's decimal point written as a comma (pt-BR: ``92,4 %
-    (90,1-94,0)``); names, paths and versions keep theirs."""
+    (90,1-94,0)``, a spacing ``3,5x2,5``); names, paths and versions keep theirs."""
+    text = _SPACING.sub(lambda m: m.group(0).replace(".", ","), text)
     return _DECIMAL_POINT.sub(r"\1,\2", text)
 
 
