@@ -581,4 +581,4 @@ def test_a_flight_edge_across_stands_and_a_plot(farm, tmp_path, capsys):
     a.append("-q")
     capsys.readouterr()
     line = _bad(capsys, a, tmp_path, out2)
-    assert re.search(r"1 plots less than 80 % covered by the points: 1 \((4|5)\d %\)", line), line
+    assert re.search(r"1 plot\(s\) less than 80 % covered by the points: 1 \((4|5)\d %\)", line), line

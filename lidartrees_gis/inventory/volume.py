@@ -176,7 +176,7 @@ def _check_plot_cover(pl, occupied) -> None:
     thin = np.flatnonzero(~(share >= MIN_PLOT_COVER))
     if thin.size:
         names = [f"{pl.ids[i]} ({100 * share[i]:.0f} %)" for i in thin]
-        raise InputError(f"PLOTS: {pl.source}: {thin.size} plots less than "
+        raise InputError(f"PLOTS: {pl.source}: {thin.size} plot(s) less than "
                          f"{100 * MIN_PLOT_COVER:.0f} % covered by the points: "
                          f"{listing(names, 8)}; at the flight's edge? drop them")
 
