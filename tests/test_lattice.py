@@ -246,3 +246,38 @@ def _inside(pos, s, margin=None):
 
 def _edge_positions(pos, s):
     return int((~_inside(pos, s)).sum())
+
+
+def test_a_stands_canopy_spectrum_is_the_same_in_any_tiling():
+    """A closed 3 x 1.5 m canopy, one stand (a disc): its spectrum from the crops of 2 x 2 or
+    3 x 3 tiles' cores is that of its whole canopy, to the bit, and so is the lattice read
+    from it; summing the tiles' own periodograms (as before) gives another spectrum."""
+    from lidartrees_gis.grid import GridSpec
+    from lidartrees_gis.plantation.canopy_lattice import (canopy_crop, canopy_lattice_guess,
+                                                          canopy_spectrum, stand_spectrum)
+
+    x, y = _lattice(3.0, 1.5, 130.0)
+    chm, res = _canopy(x, y, radius=1.15 * np.sqrt(4.5) / 2)
+    spec = GridSpec(600000.0, 7500120.0, res, chm.shape[1], chm.shape[0])
+    rr, cc = np.indices(chm.shape)
+    px, py = spec.xy(rr, cc)
+    stand = np.hypot(px - 600060.0, py - 7500060.0) < 50.0
+    whole = stand_spectrum([canopy_crop(chm, spec, stand)], res=res)
+    guess = canopy_lattice_guess(whole["power"], res)
+    assert guess is not None and abs(guess[2] - 1.5) <= 0.02
+    n = chm.shape[0]
+    for parts in (2, 3):
+        cut = [round(n * i / parts) for i in range(parts + 1)]
+        crops, powers = [], []
+        for i in range(parts):
+            for j in range(parts):
+                r0, r1, c0, c1 = cut[i], cut[i + 1], cut[j], cut[j + 1]
+                sub = GridSpec(spec.left + c0 * res, spec.top - r0 * res, res, c1 - c0, r1 - r0)
+                m = stand[r0:r1, c0:c1]
+                if m.any():
+                    crops.append(canopy_crop(chm[r0:r1, c0:c1], sub, m))
+                    powers.append(canopy_spectrum(chm[r0:r1, c0:c1], res, m))
+        tiled = stand_spectrum(crops, res=res)
+        assert np.array_equal(tiled["power"], whole["power"]) and tiled["looks"] == 1.0
+        assert canopy_lattice_guess(tiled["power"], res) == guess
+        assert not np.allclose(stand_spectrum(powers)["power"], whole["power"], rtol=0.01)

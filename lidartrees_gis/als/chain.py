@@ -342,7 +342,7 @@ def _area_grids(runner, area, p: TreeParams, plan: AreaPlan, surface, stands, pr
                             (area, p, plan, surface, stands, list(keys)), label="lattice tile"):
             for k, v in r.items():
                 parts.setdefault(k, []).append(v)
-        return {k: stand_spectrum([p for p, _ in v], [q for _, q in v])
+        return {k: stand_spectrum([p for p, _ in v], [q for _, q in v], plan.res)
                 for k, v in parts.items()}
 
     def fits(jobs, spacing, cell, scan):  # one stand's lattice per task, on the run's workers

@@ -206,14 +206,19 @@ def tile_first_tops(tile: Tile, area, params: TreeParams, plan: AreaPlan,
 def tile_canopy_spectra(tile: Tile, area, params: TreeParams, plan: AreaPlan,
                         surface: SurfaceOptions, stands=None, keys=(), progress=None) -> dict:
     """``-spacing auto``'s second look at the stands whose tops show no lattice: the tile's
-    canopy spectrum (:func:`lidartrees_gis.plantation.canopy_lattice.canopy_spectrum`) over each stand of
-    ``keys`` (stand indices; ``"all"``: the whole tile) within the tile's core, and its
-    local maxima there (:func:`lidartrees_gis.plantation.canopy_lattice.canopy_peaks`),
-    ``{key: (power, (x, y))}``; a stand's spectrum is their sum over its tiles
-    (:func:`lidartrees_gis.plantation.canopy_lattice.stand_spectrum`). Reads the surfaces :func:`tile_first_tops` kept, else makes
-    them again."""
+    canopy over each stand of ``keys`` (stand indices; ``"all"``: the whole area) within the
+    tile's core, and its local maxima there
+    (:func:`lidartrees_gis.plantation.canopy_lattice.canopy_peaks`), ``{key: (part, (x,
+    y))}``. The part is the canopy's cells
+    (:func:`lidartrees_gis.plantation.canopy_lattice.canopy_crop`): a stand's spectrum is
+    that of its whole canopy, the same in any tiling; for a stand (or area) over
+    :data:`~lidartrees_gis.plantation.canopy_lattice.CANOPY_MAX_CELLS` cells, the spectrum of
+    the tile's part (:func:`lidartrees_gis.plantation.canopy_lattice.canopy_spectrum`), summed
+    over its tiles (:func:`lidartrees_gis.plantation.canopy_lattice.stand_spectrum`). Reads
+    the surfaces :func:`tile_first_tops` kept, else makes them again."""
     from ..catalog.source import shared_cache
-    from ..plantation.canopy_lattice import canopy_peaks, canopy_spectrum
+    from ..plantation.canopy_lattice import (CANOPY_MAX_CELLS, canopy_crop, canopy_peaks,
+                                             canopy_spectrum)
     from ..plantation.stands import zones
 
     cache = shared_cache()
@@ -233,8 +238,12 @@ def tile_canopy_spectra(tile: Tile, area, params: TreeParams, plan: AreaPlan,
     for k in keys:
         mask = core if k == "all" or zone is None else core & (zone == k)
         if mask.any():
-            out[k] = (canopy_spectrum(s["chm"], spec.res, mask),
-                      canopy_peaks(s["chm"], spec, mask, params.min_height))
+            x0, y0, x1, y1 = area.extent if k == "all" or zone is None else \
+                stands.geoms[k].bounds
+            whole = (x1 - x0) * (y1 - y0) / spec.res ** 2 <= CANOPY_MAX_CELLS
+            part = canopy_crop(s["chm"], spec, mask) if whole else \
+                canopy_spectrum(s["chm"], spec.res, mask)
+            out[k] = (part, canopy_peaks(s["chm"], spec, mask, params.min_height))
     return out
 
 

@@ -75,15 +75,58 @@ def canopy_peaks(chm, spec, mask=None, min_height: float = 2.0) -> tuple:
     return np.asarray(x, float), np.asarray(y, float)
 
 
-def stand_spectrum(powers, peaks=None) -> dict:
-    """The spectrum of a stand from its tiles' :func:`canopy_spectrum` (each over the tile's
-    core, disjoint): ``power`` their sum and ``looks`` how many independent periodograms it
-    averages, ``(sum m)² / sum m²`` of their median powers ``m``; ``peaks``: the tiles'
-    :func:`canopy_peaks`, gathered (kept as ``peaks``)."""
+#: a stand's canopy is read whole (:func:`canopy_crop`, :func:`stand_spectrum`) up to this many
+#: cells (its bounding box: 25 km² at 1 m cells, 6 km² at 0.5 m); a larger one (an area
+#: without stands) as the sum of its tiles' periodograms
+CANOPY_MAX_CELLS = 25_000_000
+
+
+def canopy_crop(chm, spec, mask):
+    """The CHM cells of ``mask`` in their bounding box (NaN elsewhere), placed on the global
+    grid of ``spec.res`` cells: ``(top row, left column, array)``, the rows counted down from
+    ``y = 0`` and the columns from ``x = 0`` in cells; None for an empty mask. A stand's crops
+    from its tiles' cores (disjoint) make its whole canopy (:func:`stand_spectrum`)."""
+    m = np.asarray(mask, bool)
+    if not m.any():
+        return None
+    r, c = np.nonzero(m)
+    r0, r1, c0, c1 = int(r.min()), int(r.max()) + 1, int(c.min()), int(c.max()) + 1
+    a = np.asarray(chm)[r0:r1, c0:c1]
+    win = np.where(m[r0:r1, c0:c1], a, np.nan)
+    top = int(round(spec.top / spec.res)) - r0
+    left = int(round(spec.left / spec.res)) + c0
+    return top, left, win
+
+
+def _mosaic(crops) -> np.ndarray:
+    """The crops (:func:`canopy_crop`) of a stand's tiles as one array over their bounding box
+    (NaN where none holds a cell)."""
+    top = max(t for t, _, _ in crops)
+    left = min(c for _, c, _ in crops)
+    bottom = min(t - w.shape[0] for t, _, w in crops)
+    right = max(c + w.shape[1] for _, c, w in crops)
+    out = np.full((top - bottom, right - left), np.nan)
+    for t, c, w in crops:
+        view = out[top - t:top - t + w.shape[0], c - left:c - left + w.shape[1]]
+        np.copyto(view, w, where=np.isfinite(w))
+    return out
+
+
+def stand_spectrum(powers, peaks=None, res: float | None = None) -> dict:
+    """The spectrum of a stand from its tiles' parts (each over the tile's core, disjoint):
+    their crops of its canopy (:func:`canopy_crop`, tuples) made one (the spectrum of the
+    stand's whole canopy, :func:`canopy_spectrum` with cells of ``res``: the same in any
+    tiling, ``looks`` 1), or their :func:`canopy_spectrum` (arrays: ``power`` their sum and
+    ``looks`` how many independent periodograms it averages, ``(sum m)² / sum m²`` of their
+    median powers ``m``); ``peaks``: the tiles' :func:`canopy_peaks`, gathered (kept as
+    ``peaks``)."""
     out = {}
     if peaks:
         out["peaks"] = tuple(np.concatenate([np.asarray(p[i], float) for p in peaks])
                              for i in (0, 1))
+    crops = [p for p in powers if isinstance(p, tuple)]
+    if crops:
+        return {"power": canopy_spectrum(_mosaic(crops), res), "looks": 1.0, **out}
     powers = [np.asarray(p, float) for p in powers if p is not None and np.asarray(p).any()]
     if not powers:
         return {"power": np.zeros((CANOPY_THETAS.size, CANOPY_FREQS.size)), "looks": 1.0,

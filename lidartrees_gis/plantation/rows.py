@@ -196,6 +196,10 @@ def find_rows(x, y, dx, dy, cell: float = 0.0, scan=None):
 #: (k = 1: the same spacing; 2, 3: a harmonic; the independent generator's 3 x 2 m stands of
 #: rows with their own phases: the canopy read 2.047 and 1.021 where the tops gave 2.002)
 SAME_SPACING = {1: 0.05, 2: 0.04, 3: 0.04}
+#: :func:`choose` keeps the canopy's plant spacing over the tops' rows only where its lattice
+#: fits the tops at least this share as well (the volume generator's c1 004-A: rows 3 x 2 m
+#: fitting at 0.098, the canopy's 3 x 1.80 m at 0.006)
+CANOPY_FIT_SHARE = 0.25
 
 
 def same_rows(a, b) -> bool:
@@ -211,7 +215,8 @@ def choose(rows, canopy, x, y):
     rows (within 1° and 2 % of the spacing), the canopy's plants along them, unless its spacing
     is the tops' (within :data:`SAME_SPACING`: the tops' rows then give the phases and a finer
     spacing; the canopy's spectrum reads rows of their own phases a few % off) or a half or a
-    third of it (a harmonic of the crowns' heights along the row): tops merged along a closed
+    third of it (a harmonic of the crowns' heights along the row), or its lattice fits the
+    tops under :data:`CANOPY_FIT_SHARE` of the rows' fit: tops merged along a closed
     row may lie at the detection window's reach, not at the plants' (the second family's
     7-year 3 x 2 m stand: tops at 1.56 m along the rows), where the canopy's heights still
     rise at each plant. Where they disagree on the rows, the lattice across whose rows the
@@ -221,7 +226,8 @@ def choose(rows, canopy, x, y):
     if same_rows(rows, canopy):
         same = any(abs(k * canopy.tree_spacing - rows.tree_spacing)
                    <= SAME_SPACING[k] * rows.tree_spacing for k in SAME_SPACING)
-        return rows if same else canopy
+        # ... and the canopy's plants are kept only where the tops do not belie them
+        return rows if same or canopy.fit < CANOPY_FIT_SHARE * rows.fit else canopy
 
     dx, dy = np.asarray(x, float) - np.mean(x), np.asarray(y, float) - np.mean(y)
 
