@@ -76,9 +76,10 @@ def canopy_peaks(chm, spec, mask=None, min_height: float = 2.0) -> tuple:
 
 
 #: a stand's canopy is read whole (:func:`canopy_crop`, :func:`stand_spectrum`) up to this many
-#: cells (its bounding box: 25 km² at 1 m cells, 6 km² at 0.5 m); a larger one (an area
-#: without stands) as the sum of its tiles' periodograms
-CANOPY_MAX_CELLS = 25_000_000
+#: cells (its bounding box: 100 ha at 0.5 m cells; its periodogram, padded to twice each side,
+#: takes about 0.5 GB in the calling process); a larger one (an area without stands) as the
+#: sum of its tiles' periodograms
+CANOPY_MAX_CELLS = 4_000_000
 
 
 def canopy_crop(chm, spec, mask):
