@@ -133,8 +133,8 @@ def tree_period(dx, dy, azimuth: float, row_spacing: float, lo: float, hi: float
     ``2C``; tops at the plants and midway between them, as crowns closed along the row
     give, concentrate at ``C / 2`` most). ``scan``: the returns' scan waves
     (:func:`~.scan.scan_waves`); a period that is theirs along these rows
-    (:func:`~.scan.scan_period`) is not a candidate. Returns ``(period, resultant)``."""
-    from .scan import scan_period
+    (:func:`~.scan.scan_free`) is not a candidate. Returns ``(period, resultant)``."""
+    from .scan import scan_free
 
     a = np.radians(azimuth)
     _, _, rows = _across(dx, dy, np.array([[a]]), row_spacing)
@@ -154,7 +154,7 @@ def tree_period(dx, dy, azimuth: float, row_spacing: float, lo: float, hi: float
     def periods(a, b):
         c = np.exp(np.arange(np.log(a), np.log(b), PERIOD_STEP))
         if scan is not None and len(scan):
-            c = c[[scan_period(float(p), azimuth, scan) is None for p in c]]
+            c = c[scan_free(c, azimuth, scan)]
         return c if c.size else np.array([a])
 
     best, r = peak(periods(lo, hi))

@@ -134,14 +134,29 @@ def along_rows(waves, azimuth: float) -> np.ndarray:
         return np.where(ku > 0, 2 * np.pi / np.maximum(ku, 1e-12), np.inf)
 
 
+def _matches(periods, azimuth: float, waves) -> np.ndarray:
+    """For each plant period (m), the index of the first wave that is the scanner's at it along
+    rows of ``azimuth`` (:func:`scan_period`'s rule), -1 where none is."""
+    c = np.atleast_1d(np.asarray(periods, float))
+    if waves is None or len(waves) == 0:
+        return np.full(c.size, -1)
+    w = np.asarray(waves, float).reshape(-1, 3)
+    p = along_rows(w, azimuth)[None, :]
+    own = (2 * np.pi / np.hypot(w[:, 0], w[:, 1]))[None, :]
+    near = (np.abs(p - c[:, None]) <= SCAN_REACH * c[:, None]) & \
+        (own >= SCAN_MIN_SHARE * c[:, None])
+    return np.where(near.any(axis=1), near.argmax(axis=1), -1)
+
+
+def scan_free(periods, azimuth: float, waves) -> np.ndarray:
+    """Which of the plant ``periods`` (m) are not the scan lines' along rows of ``azimuth``
+    (:func:`scan_period`), as a boolean array."""
+    return _matches(periods, azimuth, waves) < 0
+
+
 def scan_period(period: float, azimuth: float, waves) -> float | None:
     """The scan lines' period along rows of ``azimuth`` within :data:`SCAN_REACH` of the plant
     ``period`` (m), of a wave whose own period is :data:`SCAN_MIN_SHARE` of it at least, or
     None (no such wave; none given)."""
-    if waves is None or len(waves) == 0:
-        return None
-    w = np.asarray(waves, float).reshape(-1, 3)
-    p = along_rows(w, azimuth)
-    own = 2 * np.pi / np.hypot(w[:, 0], w[:, 1])
-    near = (np.abs(p - period) <= SCAN_REACH * period) & (own >= SCAN_MIN_SHARE * period)
-    return float(p[near][0]) if near.any() else None
+    k = int(_matches(period, azimuth, waves)[0])
+    return None if k < 0 else float(along_rows(waves, azimuth)[k])
