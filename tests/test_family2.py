@@ -237,3 +237,87 @@ def test_a_stand_whose_canopy_shows_rows_but_no_plants_says_so(tmp_path):
         assert st["lattice"].startswith("no planting lattice: the canopy shows rows 4.0 m "
                                         "apart at 40°"), st["lattice"]
         assert st["stocking_pct"] is None or np.isnan(st["stocking_pct"])  # empty
+
+
+def _tree_f(tops, st) -> float:
+    """F of the tops against a truth stand's trees (one-to-one, within min(1.5 m, half the
+    plant spacing) of their tops), as ``benchmarks/bench_stands2.py`` scores them."""
+    from bench_stands2 import _match
+
+    pos = st["positions"]
+    has = pos["status"] != "missing"
+    m = _match(pos["top_x"][has], pos["top_y"][has], tops.geometry.x.to_numpy(),
+               tops.geometry.y.to_numpy(), min(1.5, 0.5 * st["lattice"]["plant_spacing"]))
+    p, r = m / max(len(tops), 1), m / max(int(has.sum()), 1)
+    return 2 * p * r / (p + r) if p + r else 0.0
+
+
+def test_the_defaults_with_stands_look_for_each_stands_lattice(tmp_path):
+    """A closed 3 x 2 m stand (1.5 ha, 8 pts/m²): with its stand polygon and no -spacing, the
+    defaults give the trees and the stand figures of -spacing auto (its lattice found, the
+    stocking's interval holding the truth), whose tops are much closer to the truth than
+    the defaults' tops alone (-planting none, the same as without stands): on these porous,
+    overlapping crowns those read the returns' noise as much as the trees."""
+    from lidartrees_gis import api as lt
+    from lidartrees_gis.als.trees import TreeParams
+
+    cfg = fam._cfg("closed", [fam._stand((3, 2), 20, 1.5, crown_k=fam.CLOSED)], slope=0.08)
+    las, stands, truth = _stand_files(cfg, tmp_path)
+    true = truth["stands"][0]
+    tops, _, summary = lt.find_trees(las, stands=stands)
+    auto, _, summary_auto = lt.find_trees(las, params=TreeParams(spacing="auto"), stands=stands)
+    assert sorted(tops["tree_id"]) == sorted(auto["tree_id"])
+    st = summary["stands"].iloc[0]
+    assert st["lattice"] == "found" and st["spacing"] == "3x2"
+    assert st["stocking_pct"] == summary_auto["stands"].iloc[0]["stocking_pct"]
+    assert st["stocking_pct_low"] <= true["stocking_pct"] <= st["stocking_pct_high"]
+    plain, _, summary_plain = lt.find_trees(las, params=TreeParams(planting="none"),
+                                            stands=stands)
+    alone = lt.find_trees(las, params=TreeParams(planting="none"))[0]
+    assert sorted(plain["tree_id"]) == sorted(alone["tree_id"])
+    assert pd_isna(summary_plain["stands"].iloc[0].get("stocking_pct"))
+    f, f_plain = _tree_f(tops, true), _tree_f(plain, true)
+    assert f >= 0.9 and f_plain <= 0.85, (f, f_plain)
+    n_true = int((true["positions"]["status"] != "missing").sum())
+    assert abs(len(tops) / n_true - 1) <= 0.08 and len(plain) / n_true <= 0.9
+
+
+def pd_isna(v) -> bool:
+    import pandas as pd
+
+    return v is None or bool(pd.isna(v))
+
+
+def test_without_stands_a_plantation_whose_tops_show_no_lattice_is_warned_of(tmp_path, data,
+                                                                             stand):
+    """The closed 3 x 2 m stand without its polygon: the canopy shows its rows (3 m apart at
+    20°) and the tops no lattice, so the run warns in one line and names -stands; a
+    stand of the package's generator (its tops on a lattice) and MixedConifer (no rows) do
+    not warn."""
+    import warnings
+
+    from lidartrees_gis import api as lt
+    from lidartrees_gis.errors import DataWarning
+
+    cfg = fam._cfg("closed", [fam._stand((3, 2), 20, 1.5, crown_k=fam.CLOSED)], slope=0.08)
+    las, _, _ = _stand_files(cfg, tmp_path)
+
+    def said(path, **kw):
+        with warnings.catch_warnings(record=True) as w:
+            warnings.simplefilter("always")
+            lt.find_trees(path, **kw)
+        return [str(x.message) for x in w if issubclass(x.category, DataWarning)
+                and "planting rows" in str(x.message)]
+
+    lines = said(las)
+    assert len(lines) == 1 and "\n" not in lines[0]
+    assert "3.0 m apart at 20°" in lines[0] and "-stands" in lines[0]
+    from lidartrees_gis.io.lasout import write_points
+    from pyproj import CRS
+
+    pts, _ = stand  # the package's own stand (its tops on a lattice)
+    demo = tmp_path / "demo.las"
+    write_points(demo, pts.x, pts.y, pts.z, crs=CRS.from_epsg(31984),
+                 classification=pts.classification)
+    assert said(demo) == []
+    assert said(data("lidR_extdata/MixedConifer.laz")) == []

@@ -187,6 +187,25 @@ def test_a_canopy_without_rows_has_no_spectral_lattice():
     assert g is not None and abs(g[1] - 3.0) <= 0.05 and abs(g[2] - 2.0) <= 0.05
 
 
+def test_a_canopys_planting_rows_and_none_in_random_crowns():
+    """``canopy_rows``: the rows of closed canopies (their spacing to 0.05 m and direction to
+    1°, a square design either axis); none among the same crowns at random positions (5
+    draws), nor in a canopy of one height."""
+    from lidartrees_gis.plantation.canopy_lattice import canopy_rows
+
+    for rs, ts, az in ((3.0, 2.0, 20.0), (3.0, 1.5, 130.0), (3.5, 2.5, 75.0), (4.0, 1.2, 5.0)):
+        x, y = _lattice(rs, ts, az)
+        chm, res = _canopy(x, y, radius=1.15 * np.sqrt(rs * ts) / 2)
+        apart, rows = canopy_rows(chm, res)
+        assert abs(apart - rs) <= 0.05 and abs((rows - az + 90.0) % 180.0 - 90.0) <= 1.0
+    for seed in range(5):
+        rng = np.random.default_rng(seed)
+        n = int(120 * 120 / 6.0)
+        chm, res = _canopy(rng.uniform(0, 120, n), rng.uniform(0, 120, n), 1.9, seed=seed)
+        assert canopy_rows(chm, res) is None
+    assert canopy_rows(np.full((300, 300), 20.0), 0.4) is None
+
+
 def test_a_natural_forest_is_not_said_to_show_rows(tmp_path, data):
     """bcts (a natural conifer forest): its canopy's strongest period, near 1 m across a
     flight line, is not a planting row; the lattice field says the tops lie in no rows."""

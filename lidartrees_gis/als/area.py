@@ -122,7 +122,7 @@ def window_measures(s, params=None) -> dict | None:
     if s is None:
         return None
     out = {"stats": s.get("stats"), "p95": float("nan"), "crown_scale": float("nan"),
-           "top": float("nan")}
+           "top": float("nan"), "rows": None}
     if params is None:
         return out
     chm, res = s["chm"], s["spec"].res
@@ -134,6 +134,10 @@ def window_measures(s, params=None) -> dict | None:
         cs = out["crown_scale"] = crown_scale(chm, res, min_height=params.min_height)
     if params.method == "rg":
         out["top"] = _smoothed_top(chm, res, params, cs)
+    if params.spacing is None and params.looks_for_lattice and canopy.size:
+        from ..plantation.canopy_lattice import canopy_rows
+
+        out["rows"] = canopy_rows(chm, res)  # planting rows the canopy shows, or None
     return out
 
 
@@ -170,6 +174,7 @@ class AreaPlan:
     buffer: float
     tile_size: float  # m (inf: one tile)
     canopy_windows: int = 0  # windows with canopy above -min_height (trees only)
+    canopy_rows: tuple = ()  # (apart m, azimuth °) of the windows whose canopy shows rows
 
     @property
     def one_tile(self) -> bool:
@@ -314,7 +319,8 @@ def plan_area(area, surface: SurfaceOptions, tiling: TilingOptions, *, runner, p
     tiles = tuple(make_tiles(area.extent, ts, buf))
     canopy = sum(1 for m in measures if np.isfinite(m["p95"]))
     plan = AreaPlan(res, density, stats, cs, source, hd, max(tops) if tops else None,
-                    len(windows), tiles, buf, ts, canopy)
+                    len(windows), tiles, buf, ts, canopy,
+                    tuple(m["rows"] for m in measures if m.get("rows") is not None))
     return plan, kept
 
 

@@ -233,6 +233,7 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
     dict: ``output``, ``trees``, the summary's figures, ``tree_ids``, what was read.
     """
     p = params or TreeParams()
+    by_stands = False  # plantation mode because stands are given (stands_plantation)
     surface, read = surface or SurfaceOptions(), read or ReadOptions()
     tiling, out = tiling or TilingOptions(), out or OutputOptions()
     if output is not None and Path(output).suffix.lower() != ".gpkg":
@@ -250,6 +251,9 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
 
         stands = load_stands(stands, area.crs, stand_id)
         check_overlap(stands, area.extent, area.label())
+        by_stands = p.spacing is None
+        p = stands_plantation(p, area)
+        by_stands = by_stands and p.spacing is not None
     # the outputs are this run's until written (a -append waits for another run's to land)
     with claim_outputs(outputs, out.overwrite, output if out.append else None), \
             runner_for(area, tiling) as runner:
@@ -260,7 +264,7 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
                     top_height=plan.top_height)
         if p.tops_finder == "treex":  # the windows start at the area's first cell (seed 001)
             p = replace(p, window_corner=area_window_corner(area, plan.res))
-        if p.spacing is not None and isinstance(area, Catalog):
+        if p.spacing is not None and isinstance(area, Catalog) and not by_stands:
             warn_sparse_plantation(_density(area, plan, ready, runner))
         summary = TreesSummary()
         tally = None if stands is None else StandsTally(stands)
@@ -290,11 +294,15 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
             check_points(area, summary, read)
             smooth = auto_smoothing(plan.crown_scale, plan.res)[0] if p.smooth == "auto" else p.smooth
             row = summary.row(p, plan, smooth)
+            if stands is None:
+                warn_rows_without_lattice(plan, row, p)
             if not runner.failed:
                 check_trees(area, plan, int(row["trees"]), p)
             srows = None
             if tally is not None:
                 srows = tally.rows(plan.res, p.spacing)
+                if by_stands and any(r.get("lattice") == "found" for r in srows):
+                    warn_sparse_plantation(_density(area, plan, ready, runner))
                 tally.check_cover(srows)
                 if stand_csv:
                     write_stand_csv(sinks["stand_csv"], srows, out.table)
@@ -310,6 +318,42 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
     if stands is not None:
         res.update(_stands_result(stands, srows, tally, stand_csv))
     return check_failed(runner, res)
+
+
+def stands_plantation(p: TreeParams, area) -> TreeParams:
+    """With stands and no ``spacing``: each stand's planting lattice is looked for, as with
+    ``-spacing auto`` (plantation mode where a stand shows one, the defaults' trees where it
+    shows none), when the defaults look for a lattice at all (:attr:`TreeParams.
+    looks_for_lattice`; ``-planting none`` or a seed method: no) and the area is points (the
+    empty positions are read from the returns). Without, the defaults' tops on the porous,
+    overlapping crowns of a closed plantation are as much the returns' noise as the trees
+    (docs/PLANTATION.md, "With stands")."""
+    if p.spacing is None and p.looks_for_lattice and isinstance(area, Catalog):
+        return replace(p, spacing="auto")
+    return p
+
+
+def warn_rows_without_lattice(plan: AreaPlan, row: dict, p: TreeParams) -> None:
+    """A :class:`DataWarning` when the canopy shows planting rows (:attr:`AreaPlan.
+    canopy_rows`) but fewer than half the tiles' tops lie on a planting lattice, without
+    stands or a spacing: the tops alone misread a closed plantation's trees (the porous,
+    overlapping crowns' noise is as many tops as the trees), and each stand's lattice, which
+    ``-stands`` looks for, reads them."""
+    if p.spacing is not None or not p.looks_for_lattice or not plan.canopy_rows:
+        return
+    if int(row.get("planting_tiles") or 0) >= 0.5 * len(plan.tiles):
+        return
+    seen = []
+    for apart, az in plan.canopy_rows:
+        if not any(abs(apart - a) <= 0.1 and abs((az - b + 90.0) % 180.0 - 90.0) <= 3.0
+                   for a, b in seen):
+            seen.append((apart, az))
+    rows = "; ".join(f"{a:.1f} m apart at {b:.0f}°" for a, b in seen[:3])
+    more = f" and {len(seen) - 3} more directions" if len(seen) > 3 else ""
+    _warn(f"the canopy shows planting rows ({rows}{more}) but the tops lie on no planting "
+          "lattice: in a closed plantation the tops alone misread its trees; give the stands "
+          "(-stands STANDS.gpkg: each stand's lattice and its trees), or -spacing auto for "
+          "one planting")
 
 
 def _area_grids(runner, area, p: TreeParams, plan: AreaPlan, surface, stands, progress) -> dict:

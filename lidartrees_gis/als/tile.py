@@ -415,6 +415,8 @@ def _one_per_position(result, st, arr, spec, params: TreeParams, heights, zone, 
     canopy = _canopy_of(t["x"], t["y"], _tops_xyh(t), st, zone, spec, hd)
     low = np.asarray(t["height"], float) < np.maximum(params.min_height,
                                                       UNDERSTOREY_HEIGHT * canopy)
+    # only where a lattice was found: a stand without one keeps the defaults' trees
+    low &= _on_lattice(t, st, zone, spec)
     drop = low | np.asarray(st.get("shares", np.zeros(low.size, bool)), bool)
     if not drop.any() or drop.all():
         return result, st
@@ -430,6 +432,20 @@ def _one_per_position(result, st, arr, spec, params: TreeParams, heights, zone, 
                            min_height=params.min_height, within=within, grids=st["grids"],
                            masks=st.get("masks"))
     return result, st
+
+
+def _on_lattice(t, st, zone, spec) -> np.ndarray:
+    """Whether each top of the table ``t`` lies in a zone (stand, or the cells outside every
+    stand) whose planting positions ``st`` counts: one with a lattice."""
+    from ..plantation.positions import top_zones
+
+    x = np.asarray(t["x"], float)
+    fitted = list((st.get("zones") or {}).keys())
+    if not fitted:
+        return np.zeros(x.size, bool)
+    tz = np.full(x.size, -1) if zone is None else top_zones(x, np.asarray(t["y"], float),
+                                                           zone, spec)
+    return np.isin(tz, fitted)
 
 
 def _planted_separation(result, arr, spec, params: TreeParams, heights, spacing) -> dict:

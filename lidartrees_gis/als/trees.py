@@ -97,6 +97,8 @@ class TreeParams:
         Planting spacing ``RxC`` (m), e.g. ``3x2``: plantation mode, the planting lattice, the
         stocking report and the planted trees' separation; the crown scale is still measured
         on the CHM (fixing it from the spacing gave false tops on the flanks of wide crowns).
+        Runs with stands and no spacing take ``"auto"`` when :attr:`looks_for_lattice`
+        (:func:`lidartrees_gis.als.chain.stands_plantation`).
     crown_scale : float, optional
         Crown scale (m) for ``auto``; default measured on the CHM
         (:func:`lidartrees_gis.als.chm.crown_scale`).
@@ -125,7 +127,8 @@ class TreeParams:
         area's grid (the image's first pixel, as seed 001 moves its window over the height
         model), set by the chains for every tile of an area; default the global grid's cell 0.
     planting : {"auto", "none"}, optional
-        Without ``spacing``: ``auto`` looks for a planting lattice under the tops
+        Without ``spacing``: ``auto`` (with stands: ``spacing="auto"``, each stand's lattice)
+        looks for a planting lattice under the tops
         (:func:`lidartrees_gis.plantation.stocking.detect_planting`) and, when there is one, looks again
         at its empty positions for trees the tops finder missed (each tile on its own, with its
         buffer); ``none`` does not. Default (None): ``auto`` for the default method

@@ -233,9 +233,8 @@ COMMANDS = {
          Param("spacing", "str", "Plantation mode: planting spacing ROWSxTREES in m, e.g. 3x2, "
                "or auto (found under the tops, per stand with -stands); "
                "each empty planting position classified missing, suppressed or uncertain (gaps "
-               "layer), and "
-               "stocking, added to the "
-               "output", flag="-spacing"),
+               "layer), and stocking, added to the output. Default: auto with -stands (a stand "
+               "that shows no lattice keeps the defaults' trees), none without", flag="-spacing"),
          Param("tops", "choice", "Tree tops: aw = adaptive window (crown scale x height); lm = "
                "8-neighbour maxima, one per plateau (Castro 2006); strict = strictly higher than "
                "all 8 neighbours, grid-border cells excluded (Castro's literal rule); treex = "
@@ -252,7 +251,8 @@ COMMANDS = {
                "(default 2.6 CHM cells, 1.3 m at 4 pts/m², at most 1.8 crown scales; with "
                "-spacing at least 0.6 x the smaller spacing; 0 = no limit)",
                flag="-min_separation", advanced=True, unit="m"),
-         Param("planting", "choice", "Without -spacing: auto = when the tops lie on a planting "
+         Param("planting", "choice", "Without -spacing: auto = with -stands, -spacing auto; "
+               "without, when the tops lie on a planting "
                "lattice (at least 100 trees, lattice fit >= 0.25), look again at its empty "
                "positions for trees the tops finder missed (each tile with its buffer); none = "
                "off. Default: auto with the default method (rg, -smooth auto, -tops auto), none "

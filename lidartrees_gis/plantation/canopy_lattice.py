@@ -190,6 +190,32 @@ def canopy_rows_only(spectrum, cell: float = 0.0) -> str | None:
             "-spacing RxC")
 
 
+#: :func:`canopy_rows` reads at most this square (m) of a canopy, its centre's
+CANOPY_ROWS_SIDE = 150.0
+
+
+def canopy_rows(chm, res: float):
+    """The planting rows a canopy shows beyond chance, ``(apart m, azimuth °)``, or None: its
+    spectrum's strongest peak among the periods of planting rows (:data:`CANOPY_ROW_MIN` to
+    :data:`SPECTRAL_PERIODS`' longest), each frequency's powers over their median over the
+    directions, beyond :data:`CANOPY_CHANCE`'s first level (as :func:`canopy_lattice_guess`
+    reads its first axis); at most the central :data:`CANOPY_ROWS_SIDE` metres are read."""
+    a = np.asarray(chm, float)
+    n = max(8, int(round(CANOPY_ROWS_SIDE / res)))
+    r0, c0 = max(0, (a.shape[0] - n) // 2), max(0, (a.shape[1] - n) // 2)
+    p = canopy_spectrum(a[r0:r0 + n, c0:c0 + n], res)
+    keep = (CANOPY_FREQS >= 1.0 / SPECTRAL_PERIODS[1]) & (CANOPY_FREQS <= 1.0 / CANOPY_ROW_MIN)
+    p = p[:, keep]
+    if not p.any():
+        return None
+    med = np.median(p, axis=0)
+    r = p / np.where(med > 0, med, np.inf)[None, :]
+    i, j = np.unravel_index(int(np.argmax(r)), r.shape)
+    if r[i, j] < _level(r.size, CANOPY_CHANCE[0], 1.0):
+        return None
+    return 1.0 / float(CANOPY_FREQS[keep][j]), (float(np.degrees(CANOPY_THETAS[i])) + 90.0) % 180.0
+
+
 def peaks_lattice_guess(peaks, cell: float = 0.0):
     """Row direction and spacings (as :func:`canopy_lattice_guess`) from the canopy's local
     maxima ``peaks`` (:func:`canopy_peaks`), for a closed canopy whose heights hardly dip

@@ -364,8 +364,8 @@
       <translation>Espaçamento de plantio (linhas x plantas)</translation>
     </message>
     <message>
-      <source>Plantation mode: planting spacing ROWSxTREES in m, e.g. 3x2, or auto (found under the tops, per stand with -stands); each empty planting position classified missing, suppressed or uncertain (gaps layer), and stocking, added to the output</source>
-      <translation>Modo plantio: espaçamento de plantio LINHASxPLANTAS em m, p. ex. 3x2, ou auto (encontrado sob os topos, por talhão com -stands); cada cova vazia classificada como falha, dominada ou incerta (camada gaps), e o estoque, acrescentados à saída</translation>
+      <source>Plantation mode: planting spacing ROWSxTREES in m, e.g. 3x2, or auto (found under the tops, per stand with -stands); each empty planting position classified missing, suppressed or uncertain (gaps layer), and stocking, added to the output. Default: auto with -stands (a stand that shows no lattice keeps the defaults' trees), none without</source>
+      <translation>Modo plantio: espaçamento de plantio LINHASxPLANTAS em m, p. ex. 3x2, ou auto (encontrado sob os topos, por talhão com -stands); cada cova vazia classificada como falha, dominada ou incerta (camada gaps), e o estoque, acrescentados à saída. Padrão: auto com -stands (um talhão que não mostra grade de plantio fica com as árvores do padrão); sem -stands, nenhum</translation>
     </message>
     <message>
       <source>Tree-top rule</source>
@@ -404,8 +404,8 @@
       <translation>Grade de plantio sob os topos (sem espaçamento)</translation>
     </message>
     <message>
-      <source>Without -spacing: auto = when the tops lie on a planting lattice (at least 100 trees, lattice fit &gt;= 0.25), look again at its empty positions for trees the tops finder missed (each tile with its buffer); none = off. Default: auto with the default method (rg, -smooth auto, -tops auto), none with a seed method or configuration, which then runs as its paper defines it</source>
-      <translation>Sem -spacing: auto = quando os topos estão sobre uma grade de plantio (pelo menos 100 árvores, ajuste da grade &gt;= 0,25), procura de novo nas covas vazias as árvores que o localizador de topos perdeu (cada bloco com a sua borda); none = desligado. Padrão: auto com o método padrão (rg, -smooth auto, -tops auto), none com um método ou configuração dos artigos de origem, que então roda como o seu artigo o define</translation>
+      <source>Without -spacing: auto = with -stands, -spacing auto; without, when the tops lie on a planting lattice (at least 100 trees, lattice fit &gt;= 0.25), look again at its empty positions for trees the tops finder missed (each tile with its buffer); none = off. Default: auto with the default method (rg, -smooth auto, -tops auto), none with a seed method or configuration, which then runs as its paper defines it</source>
+      <translation>Sem -spacing: auto = com -stands, -spacing auto; sem, quando os topos estão sobre uma grade de plantio (pelo menos 100 árvores, ajuste da grade &gt;= 0,25), procura de novo nas covas vazias as árvores que o localizador de topos perdeu (cada bloco com a sua borda); none = desligado. Padrão: auto com o método padrão (rg, -smooth auto, -tops auto), none com um método ou configuração dos artigos de origem, que então roda como o seu artigo o define</translation>
     </message>
     <message>
       <source>Region-growing step</source>
@@ -1066,6 +1066,14 @@
     <message>
       <source>Area-based approach (Næsset, E. (2002), Remote Sensing of Environment 80, 88-99); Schumacher, F. X. &amp; Hall, F. S. (1933) volume equation; eucalyptus plantations: Silva, C. A. et al. (2016), Forestry. Model form, intervals and limits: docs/VOLUME.md.</source>
       <translation>Abordagem de área (Næsset, E. (2002), Remote Sensing of Environment 80, 88-99); equação de volume de Schumacher, F. X. &amp; Hall, F. S. (1933); plantios de eucalipto: Silva, C. A. et al. (2016), Forestry. Forma do modelo, intervalos e limites: docs/VOLUME.md.</translation>
+    </message>
+    <message>
+      <source>Plantation mode: planting spacing ROWSxTREES in m, e.g. 3x2, or auto (found under the tops, per stand with -stands); each empty planting position classified missing, suppressed or uncertain (gaps layer), and stocking, added to the output</source>
+      <translation type="vanished">Modo plantio: espaçamento de plantio LINHASxPLANTAS em m, p. ex. 3x2, ou auto (encontrado sob os topos, por talhão com -stands); cada cova vazia classificada como falha, dominada ou incerta (camada gaps), e o estoque, acrescentados à saída</translation>
+    </message>
+    <message>
+      <source>Without -spacing: auto = when the tops lie on a planting lattice (at least 100 trees, lattice fit &gt;= 0.25), look again at its empty positions for trees the tops finder missed (each tile with its buffer); none = off. Default: auto with the default method (rg, -smooth auto, -tops auto), none with a seed method or configuration, which then runs as its paper defines it</source>
+      <translation type="vanished">Sem -spacing: auto = quando os topos estão sobre uma grade de plantio (pelo menos 100 árvores, ajuste da grade &gt;= 0,25), procura de novo nas covas vazias as árvores que o localizador de topos perdeu (cada bloco com a sua borda); none = desligado. Padrão: auto com o método padrão (rg, -smooth auto, -tops auto), none com um método ou configuração dos artigos de origem, que então roda como o seu artigo o define</translation>
     </message>
     <message>
       <source>Schumacher-Hall coefficients b0,b1,b2 of V = b0·DAP^b1·HT^b2 (DAP cm, HT m, V m³); default: fitted on the trees that carry a volume</source>
