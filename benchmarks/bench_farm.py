@@ -16,7 +16,9 @@ process and its children, sampled every 0.1 s)::
     lidartrees trees FARM_DIR defaults.gpkg -overwrite
     lidartrees trees FARM_DIR plantation.gpkg -spacing auto -stands stands.gpkg -overwrite
 
-Every stand of the plantation run is scored against the truth as in ``bench_stands2``.
+Every stand of the plantation run is scored against the truth as in ``bench_stands2``, and the
+defaults' tree F per stand beside it (their tops inside the stand's polygon; without stands
+the defaults read the farm's planted blocks, ``runs.defaults.blocks``).
 Results: ``benchmarks/results/farm.json``.
 Usage: ``python benchmarks/bench_farm.py [--work /tmp/farm] [--density 10]``.
 """
@@ -266,6 +268,30 @@ def main(argv=None):
                 "talhao", "design", "azimuth_true", "crown_k", "lattice_ok", "stocking_true",
                 "stocking_err_pts", "truth_in_interval", "gap_precision", "missing_recall",
                 "tree_f")), flush=True)
+    if runs["defaults"]["exit"] == 0:  # the defaults' trees per stand (its planted blocks)
+        import geopandas as gpd
+        import pyogrio
+
+        out = work / "defaults.gpkg"
+        layers = {n for n, _ in pyogrio.list_layers(out)}
+        tops = gpd.read_file(out, layer="tree_tops")
+        pol = gpd.read_file(stands_path)
+        j = gpd.sjoin(tops, pol[["talhao", "geometry"]], how="left", predicate="within")
+        tops["stand_id"] = j["talhao"].astype(str).to_numpy()
+        empty = gpd.GeoDataFrame({"stand_id": pol["talhao"].astype(str)}, geometry=pol.geometry)
+        blocks = gpd.read_file(out, layer="stands") if "stands" in layers else None
+        runs["defaults"]["blocks"] = 0 if blocks is None else len(blocks)
+        runs["defaults"]["blocks_with_lattice"] = 0 if blocks is None else \
+            int((blocks["lattice"] == "found").sum())
+        by = {r["talhao"]: r for r in rows}
+        for s in stands:
+            r = score_stand(s, empty, gpd.GeoDataFrame(), tops)
+            if s["talhao"] in by:
+                by[s["talhao"]].update(defaults_trees_found=r["trees_found"],
+                                       defaults_tree_f=r["tree_f"])
+        print("defaults blocks", runs["defaults"]["blocks"], "tree F",
+              [by[s["talhao"]].get("defaults_tree_f") for s in stands if s["talhao"] in by],
+              flush=True)
     ratio = (runs["plantation"]["wall_s"] / runs["defaults"]["wall_s"]
              if runs["defaults"]["wall_s"] else None)
     result = {"benchmark": "bench_farm", "points": int(n_points), "stands": len(stands),

@@ -5,16 +5,21 @@ one row per stand.
 ``bench_volume2.py``). Its farms plant each row from the stand's edge, so a row's plants do not
 face those of the next row; crowns are narrow ellipsoids offset from the stem, scanned in lines
 with a beam footprint; 5-8 returns/m²; 3 x 1.5 to 3.5 x 2.5 m; missing trees alone and in runs.
-For each farm the CLI runs as a user runs it, the defaults first, then plantation mode::
+For each farm the CLI runs as a user runs it, the defaults first (with the stands: since they
+look for each stand's lattice, the same trees as ``-spacing auto``), then plantation mode, then
+the defaults without the stands (each tile's own lattice look; the defaults with the stands
+before they looked for each stand's lattice gave these trees)::
 
     python -m lidartrees_gis.cli trees voo.laz OUT.gpkg -stands talhoes.gpkg -overwrite -q
     python -m lidartrees_gis.cli trees voo.laz OUT.gpkg -spacing auto -stands talhoes.gpkg \
-        -stand_csv OUT.csv -overwrite -q
+        -overwrite -q
+    python -m lidartrees_gis.cli trees voo.laz OUT.gpkg -overwrite -q
 
 and every stand is scored as ``bench_stands2.score_stand`` scores the second family (lattice
 within 0.05 m and 1°, stocking error and interval, gaps, tree F) against the farm's truth
 (``truth_arvores.csv``: every planting position, ``viva`` 0 where a tree is missing; the tree
-top at the crown's centre). The defaults' rows carry the tree F only.
+top at the crown's centre). The defaults' and no_stands rows carry the tree F only; a run
+without stands is scored on the tops inside each stand's polygon.
 Results: ``benchmarks/results/plantation3.json`` (``plantation3_before.json``: the stop before
 rows with their own phases, 0151209). Usage:
 ``python benchmarks/bench_plantation3.py [--work /tmp/bench_volume2] [--configs NAME ...]``.
@@ -65,10 +70,11 @@ def run_farm(d: Path, name: str, python: str) -> list:
 
     truth = farm_truth(d)
     rows = []
-    for mode, extra in (("defaults", []), ("auto", ["-spacing", "auto"])):
+    for mode, extra in (("defaults", []), ("auto", ["-spacing", "auto"]), ("no_stands", None)):
         out = d / f"plantation3_{mode}.gpkg"
+        where = [] if extra is None else ["-stands", str(d / "talhoes.gpkg")]
         cmd = [python, "-m", "lidartrees_gis.cli", "trees", str(d / "voo.laz"), str(out),
-               "-stands", str(d / "talhoes.gpkg"), "-overwrite", "-q", *extra]
+               *where, "-overwrite", "-q", *(extra or [])]
         if mode == "auto":
             cmd += ["-stand_csv", str(d / "plantation3_auto.csv")]
         t0 = time.time()
@@ -80,16 +86,28 @@ def run_farm(d: Path, name: str, python: str) -> list:
                      for s in truth]
             continue
         layers = {n for n, _ in pyogrio.list_layers(out)}
-        stands = gpd.read_file(out, layer="stands")
-        gaps = gpd.read_file(out, layer="gaps") if "gaps" in layers else gpd.GeoDataFrame()
         tops = gpd.read_file(out, layer="tree_tops")
+        stands = gpd.read_file(out, layer="stands") if "stands" in layers else \
+            _stands_of(tops, d)
+        gaps = gpd.read_file(out, layer="gaps") if "gaps" in layers else gpd.GeoDataFrame()
         for s in truth:
             r = dict(base, **score_stand(s, stands, gaps, tops))
-            if mode == "defaults":
+            if mode != "auto":
                 r = {k: r[k] for k in ("config", "mode", "run_s", "exit", "talhao", "design",
                                        "trees_true", "trees_found", "tree_f")}
             rows.append(r)
     return rows
+
+
+def _stands_of(tops, d: Path):
+    """A run without -stands: its tops given each stand's id (the farm's polygons) and a
+    stands table of the ids alone, as ``score_stand`` reads them."""
+    import geopandas as gpd
+
+    pol = gpd.read_file(d / "talhoes.gpkg")
+    j = gpd.sjoin(tops, pol[["talhao", "geometry"]], how="left", predicate="within")
+    tops["stand_id"] = j["talhao"].astype(str).to_numpy()
+    return gpd.GeoDataFrame({"stand_id": pol["talhao"].astype(str)}, geometry=pol.geometry)
 
 
 COLUMNS = ("config", "talhao", "mode", "design", "azimuth_true", "lattice_ok", "spacing_found",

@@ -15,7 +15,10 @@ and compares each stand of the output with the generator's truth:
   not a reported gap), and the share of true missing positions reported missing or
   uncertain (recall);
 * trees: F-score of the tree tops (suppressed ones included) against the truth's tops
-  (one-to-one, within min(1.5 m, half the plant spacing)).
+  (one-to-one, within min(1.5 m, half the plant spacing)); the same of the defaults without
+  the stands (``trees STAND.las OUT.gpkg``: each tile's own lattice look), on the tops inside
+  each stand's polygon (``no_stands_tree_f``). With the stands and no ``-spacing`` the
+  defaults give ``-spacing auto``'s trees.
 
 Results: ``benchmarks/results/stands2.json`` (one row per configuration stand, no means).
 Usage: ``python benchmarks/bench_stands2.py [--density 8] [--configs NAME ...]``.
@@ -171,6 +174,9 @@ def run_config(cfg, work, seed, timeout, python, explicit=False):
         truth = pickle.load(f)
     gen_s = time.time() - t0
     rows = _run_score(cfg, truth, work, "auto", las, stands_path, timeout, python)
+    plain = _run_plain(cfg, truth, work, las, stands_path, timeout, python)
+    for r in rows:
+        r.update(plain.get(r["talhao"], {}))
     designs = {st["spacing"] for st in cfg["stands"]}
     if explicit and len(designs) == 1:
         rs, ps = designs.pop()
@@ -227,12 +233,45 @@ def _run_score(cfg, truth, work, spacing, las, stands_path, timeout, python):
     return rows
 
 
+def _run_plain(cfg, truth, work, las, stands_path, timeout, python) -> dict:
+    """The defaults without -stands (each tile's own lattice look: the trees the defaults gave
+    with the stands too, before they looked for each stand's lattice): per stand, the tree F
+    of the tops inside its polygon, as ``no_stands_*`` fields."""
+    import geopandas as gpd
+
+    out = work / f"{cfg['name']}_plain.gpkg"
+    cmd = [python, "-m", "lidartrees_gis.cli", "trees", str(las), str(out), "-overwrite", "-q"]
+    side = work / f"{cfg['name']}_plain.run.json"
+    if RESCORE and side.exists() and out.exists():
+        rc = json.loads(side.read_text())["exit"]
+    else:
+        try:
+            rc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout,
+                                cwd=str(HERE.parent)).returncode
+        except subprocess.TimeoutExpired:
+            rc = "timeout"
+        side.write_text(json.dumps({"exit": rc, "cmd": cmd}))
+    if rc != 0:
+        return {s["talhao"]: {"no_stands_exit": rc} for s in truth["stands"]}
+    tops = gpd.read_file(out, layer="tree_tops")
+    pol = gpd.read_file(stands_path)
+    j = gpd.sjoin(tops, pol[["talhao", "geometry"]], how="left", predicate="within")
+    tops["stand_id"] = j["talhao"].astype(str).to_numpy()
+    empty = gpd.GeoDataFrame({"stand_id": pol["talhao"].astype(str)}, geometry=pol.geometry)
+    res = {}
+    for st in truth["stands"]:
+        r = score_stand(st, empty, gpd.GeoDataFrame(), tops)
+        res[st["talhao"]] = {"no_stands_trees_found": r["trees_found"],
+                             "no_stands_tree_f": r["tree_f"]}
+    return res
+
+
 RESCORE = False  # --rescore: score the outputs kept in --work (runs without them rerun)
 
 COLUMNS = ("config", "talhao", "design", "azimuth_true", "density", "slope_pct", "lattice_ok",
            "spacing_found", "azimuth_found", "positions_true", "positions_found",
            "stocking_true", "stocking_err_pts", "truth_in_interval", "gap_precision",
-           "missing_recall", "tree_f")
+           "missing_recall", "tree_f", "no_stands_tree_f")
 
 
 def main(argv=None):

@@ -102,7 +102,7 @@ def run_config(name, p, density, draws, resamples):
                                                  select_model, total_interval)
     from lidartrees_gis.inventory.plots import Zones
     from lidartrees_gis.inventory.tiles import area_metrics
-    from lidartrees_gis.inventory.volume import _cells
+    from lidartrees_gis.inventory.volume import MIN_CELL_COVER, _cells
     from lidartrees_gis.io.options import ReadOptions
 
     t0 = time.time()
@@ -127,7 +127,7 @@ def run_config(name, p, density, draws, resamples):
         r = area_metrics(area, cells_res=20.0, zones=zones, tiling=one)
         spec, grid = r["cells"]
         stand_zones = Zones.of_polygons(st.geoms)
-        cm, cell_stand = _cells(spec, grid, stand_zones)
+        cm, cell_stand = _cells(spec, grid, stand_zones, r["coverage"] >= MIN_CELL_COVER)
         t_metrics = time.time() - t0
         tr = trees_run(d / "farm.laz", None, stands=d / "stands.gpkg", tiling=one)
         tops = tr["layers"]["tree_tops"]

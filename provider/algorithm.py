@@ -53,8 +53,8 @@ LAYER_INPUT = ("info", "grid", "chm", "trees", "compare", "ground", "dtm-quality
 #: LAS/LAZ outputs (the default extension of a temporary output is the first one)
 LAS_OUTPUTS = {("ground", "output"), ("profile", "output")}
 GPKG_LAYERS = (("tree_tops", "tree_tops.qml"), ("crowns", "crowns.qml"))
-GAPS_LAYER = ("gaps", "gaps.qml")  # plantation mode (-spacing) only
-STANDS_LAYER = ("stands", "stands.qml")  # with -stands only
+GAPS_LAYER = ("gaps", "gaps.qml")  # plantation mode (-spacing, -stands, planted blocks)
+STANDS_LAYER = ("stands", "stands.qml")  # with -stands, or the planted blocks
 _KEEP = []  # post-processors must outlive processAlgorithm
 
 
@@ -213,6 +213,18 @@ def _output_kind(cmd_name, p):
     if cmd_name in ("trees", "volume") and p.name == "output":
         return "gpkg"
     return "raster"
+
+
+def _layer_names(path) -> set:
+    """The layers of a GeoPackage (none when it cannot be read)."""
+    try:
+        from osgeo import ogr
+
+        ds = ogr.Open(str(path))
+        return set() if ds is None else {ds.GetLayer(i).GetName()
+                                         for i in range(ds.GetLayerCount())}
+    except Exception:  # noqa: BLE001 - no layer list: the layers the parameters name
+        return set()
 
 
 def vector_source(layer, pid):
@@ -482,8 +494,12 @@ class CommandAlgorithm(QgsProcessingAlgorithm):
                          prefix="", with_trees=False):
         sdir = styles_dir()
         if self._name == "trees" and p.name == "output":
-            for layer, qml in GPKG_LAYERS + ((GAPS_LAYER,) if with_gaps else ()) \
-                    + ((STANDS_LAYER,) if with_stands else ()):
+            # gaps and stands come with -spacing and -stands, and also with the defaults (each
+            # stand's lattice; without stands, the planted blocks): the file says which
+            present = _layer_names(path)
+            extra = tuple(x for x, on in ((GAPS_LAYER, with_gaps), (STANDS_LAYER, with_stands))
+                          if on or prefix + x[0] in present)
+            for layer, qml in GPKG_LAYERS + extra:
                 layer = prefix + layer
                 uri = f"{path}|layername={layer}"
                 details = QgsProcessingContext.LayerDetails(layer, context.project(), layer)

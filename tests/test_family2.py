@@ -288,19 +288,24 @@ def pd_isna(v) -> bool:
     return v is None or bool(pd.isna(v))
 
 
-def test_without_stands_a_plantation_whose_tops_show_no_lattice_is_warned_of(tmp_path, data,
-                                                                             stand):
-    """The closed 3 x 2 m stand without its polygon: the canopy shows its rows (3 m apart at
-    20°) and the tops no lattice, so the run warns in one line and names -stands; a
-    stand of the package's generator (its tops on a lattice) and MixedConifer (no rows) do
-    not warn."""
+def test_without_stands_a_plantation_whose_tops_show_no_lattice_is_warned_of(
+        tmp_path, data, stand, monkeypatch):
+    """The closed 3 x 2 m stand without its polygon: its planted block gets its lattice (3 x 2
+    m at 20°). Were no block found there, the canopy showing its rows (3 m apart at 20°) and
+    the tops no lattice, the run warns in one line and names -stands; a stand of the
+    package's generator (its tops on a lattice) and MixedConifer (no rows) do not warn."""
     import warnings
 
+    import lidartrees_gis.als.planted as planted
     from lidartrees_gis import api as lt
     from lidartrees_gis.errors import DataWarning
 
     cfg = fam._cfg("closed", [fam._stand((3, 2), 20, 1.5, crown_k=fam.CLOSED)], slope=0.08)
     las, _, _ = _stand_files(cfg, tmp_path)
+    st = lt.find_trees(las)[2]["stands"]
+    assert list(st["stand_id"]) == ["B01"] and st["lattice"].iloc[0] == "found"
+    assert st["spacing"].iloc[0] == "3x2"
+    assert abs((st["row_azimuth"].iloc[0] - 20.0 + 90.0) % 180.0 - 90.0) <= 1.0
 
     def said(path, **kw):
         with warnings.catch_warnings(record=True) as w:
@@ -309,9 +314,13 @@ def test_without_stands_a_plantation_whose_tops_show_no_lattice_is_warned_of(tmp
         return [str(x.message) for x in w if issubclass(x.category, DataWarning)
                 and "planting rows" in str(x.message)]
 
+    import lidartrees_gis.plantation.blocks as blocks
+
+    monkeypatch.setattr(blocks, "planted_blocks", lambda *a, **k: [])
     lines = said(las)
     assert len(lines) == 1 and "\n" not in lines[0]
     assert "3.0 m apart at 20°" in lines[0] and "-stands" in lines[0]
+    assert planted.BLOCKS_SOURCE  # the blocks' source, named in the run's summary
     from lidartrees_gis.io.lasout import write_points
     from pyproj import CRS
 

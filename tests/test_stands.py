@@ -293,9 +293,10 @@ def test_evaluate_per_stand_when_the_reference_has_a_stand_id(two_stands, tmp_pa
 
 
 def test_plantation_mode_one_tree_per_position_and_no_shrubs(tmp_path):
-    """Shrubs of 3-4 m at missing planting positions under a 23 m stand: the defaults take
-    them for trees; plantation mode leaves them out (below 30 % of the dominant height), so
-    their positions are missing trees in the gaps layer, and no position holds two tops."""
+    """Shrubs of 3-4 m at missing planting positions under a 23 m stand: the tops alone
+    (-planting none) take them for trees; plantation mode leaves them out (below 30 % of the
+    dominant height), so their positions are missing trees in the gaps layer, and no
+    position holds two tops; so do the defaults, which read the stand's planted block."""
     import pyogrio
 
     from lidartrees_gis.als.chain import trees_run
@@ -333,9 +334,10 @@ def test_plantation_mode_one_tree_per_position_and_no_shrubs(tmp_path):
         d = np.hypot(tx[:, None] - mx[None, :], ty[:, None] - my[None, :])
         return int((d.min(axis=0) < 0.6).sum())
 
-    dx, dy, _ = tops("defaults")
+    dx, dy, _ = tops("alone", planting="none")
     px, py, ph = tops("plantation", spacing="3x2")
-    assert at_shrubs(dx, dy) >= 0.5 * mx.size  # the defaults count the shrubs as trees
+    assert at_shrubs(dx, dy) >= 0.5 * mx.size  # the tops alone count the shrubs as trees
+    assert at_shrubs(*tops("defaults")[:2]) == 0
     assert at_shrubs(px, py) == 0 and ph.min() >= 0.3 * np.percentile(ph, 95) - 1.0
     gaps = pyogrio.read_dataframe(tmp_path / "plantation.gpkg", layer="gaps",
                                   read_geometry=False)

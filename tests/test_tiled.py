@@ -120,11 +120,14 @@ def test_tiled_equals_untiled_on_a_stand_split_in_files(split_stand, tmp_path):
     assert e["all"]["f_score"] >= 0.97
 
 
-def test_tiles_look_for_a_planting_lattice_as_one_file_does(tmp_path):
-    """The 4 pts/m² stand in 6 tiles: each tile finds the 3 x 2 m lattice under its tops and
-    looks again at its empty positions, as the whole file does (F >= 0.97)."""
+def test_tiles_look_for_a_planting_lattice_as_one_file_does(tmp_path, monkeypatch):
+    """The 4 pts/m² stand in 6 tiles: the defaults read its planted block as the whole file
+    does (one lattice, the same trees to 2, F >= 0.97); where no block is made (the fallback
+    without stands), each tile finds the 3 x 2 m lattice under its tops and looks again at
+    its empty positions, as the whole file does (F >= 0.97)."""
     from pyproj import CRS as PCRS
 
+    import lidartrees_gis.als.chain as chain
     from lidartrees_gis.report.evaluate import evaluate_trees
     from lidartrees_gis.synthetic import CRS as SCRS
     from lidartrees_gis.synthetic import StandParams, make_stand
@@ -134,6 +137,14 @@ def test_tiles_look_for_a_planting_lattice_as_one_file_does(tmp_path):
     f = tmp_path / "stand.laz"
     write_points(f, pts.x, pts.y, pts.z, crs=PCRS.from_user_input(SCRS),
                  classification=pts.classification)
+    whole = trees_run(f, tmp_path / "b1.gpkg")
+    tiled = trees_tiled(f, tmp_path / "b6.gpkg", tile_size=30, workers=1)
+    assert whole["stands"] == tiled["stands"] == 1 and tiled["lattice"] == "found"
+    assert len(set(whole["tree_ids"]) ^ set(tiled["tree_ids"])) <= 2
+    tops = pyogrio.read_dataframe(tmp_path / "b6.gpkg", layer="tree_tops")
+    e = evaluate_trees(tops.x, tops.y, tops.height, truth["x"], truth["y"], truth["height"])
+    assert e["all"]["f_score"] >= 0.97
+    monkeypatch.setattr(chain, "wants_blocks", lambda *a: False)  # the tiles' own look
     whole = trees_run(f, tmp_path / "one.gpkg")
     tiled = trees_tiled(f, tmp_path / "tiled.gpkg", tile_size=30, workers=1)
     off = trees_tiled(f, tmp_path / "off.gpkg", tile_size=30, workers=1,
@@ -394,8 +405,10 @@ def test_cli_runs_a_folder_in_tiles(split_stand, tmp_path):
     png = Image.open(tmp_path / "q.png")
     assert f"{r['trees']:,} trees" in png.text["Description"]
     rows = (tmp_path / "t.csv").read_text().splitlines()
-    assert rows[0].startswith("tree_id,row_number,plant_number,x,y,height,") and \
+    # the stand's planted block (no stands given) is each tree's stand
+    assert rows[0].startswith("tree_id,stand_id,row_number,plant_number,x,y,height,") and \
         len(rows) == r["trees"] + 1
+    assert {line.split(",")[1].strip('"') for line in rows[1:]} == {"B01"}
     tops = pyogrio.read_dataframe(tmp_path / "p.gpkg", layer="tree_tops")
     assert {int(line.split(",")[0].strip('"')) for line in rows[1:]} == set(tops.tree_id)
 
@@ -606,10 +619,12 @@ def test_tiled_layers_are_complete_and_indexed(split_stand, tmp_path):
     assert a["trees"] == b["trees"] > 500
     layers = [n for n, g in pyogrio.list_layers(out) if n != "layer_styles"]
     assert "layer_styles" in [n for n, g in pyogrio.list_layers(out)]  # QGIS styles inside
-    assert sorted(layers) == sorted(["tree_tops", "crowns", "summary", "b_tree_tops", "b_crowns",
+    # the stand's planted block (no stands given): its gaps and the block as a stand too
+    assert sorted(layers) == sorted(["tree_tops", "crowns", "gaps", "stands", "summary",
+                                     "b_tree_tops", "b_crowns", "b_gaps", "b_stands",
                                      "b_summary"])
-    assert [n for n in layers if "summary" not in n] == ["tree_tops", "crowns", "b_tree_tops",
-                                                         "b_crowns"]
+    assert [n for n in layers if n.split("_")[-1] in ("tops", "crowns")] == [
+        "tree_tops", "crowns", "b_tree_tops", "b_crowns"]
     con = sqlite3.connect(out)
     try:
         for t in ("tree_tops", "crowns", "b_tree_tops", "b_crowns"):
@@ -625,7 +640,7 @@ def test_tiled_layers_are_complete_and_indexed(split_stand, tmp_path):
     info = pyogrio.read_info(out, layer="crowns")
     assert list(info["fields"]) == ["tree_id", "x", "y", "height", "crown_area", "crown_diameter",
                                     "n_cells", "row_number", "plant_number", "suppressed",
-                                    "method", "small_crown"]
+                                    "stand_id", "method", "small_crown"]
     assert info["geometry_type"] == "Polygon" and "29194" in info["crs"]
     assert json.loads(info["layer_metadata"]["tiles"]) > 1
     assert sorted(p.name for p in tmp_path.iterdir()) == ["t.gpkg"]

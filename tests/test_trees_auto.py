@@ -496,7 +496,9 @@ def test_plantation_mode_warns_that_sparse_data_under_report_stocking(tmp_path, 
     assert len(sparse) == 1 and "stocking and the gaps are unreliable" in sparse[0]
     assert 1.7 <= float(sparse[0].split()[0]) <= 2.3  # the measured density
     assert data_warnings(files[6.0], params=TreeParams(spacing="3x2")) == []
-    assert data_warnings(files[2.0]) == []  # no stocking without -spacing
+    # the defaults read the stand's planted block, and report its stocking: warned of too
+    assert len(data_warnings(files[2.0])) == 1 and data_warnings(files[6.0]) == []
+    assert data_warnings(files[2.0], params=TreeParams(planting="none")) == []
     # the CLI prints it as one line and still writes the layers
     out = tmp_path / "cli.gpkg"
     assert main(["trees", str(files[2.0]), str(out), "-spacing", "3x2", "-q"]) == 0
@@ -543,12 +545,16 @@ def test_detect_planting_gives_up_on_random_trees_before_any_fit(stand, monkeypa
     assert calls == [pre, pre, truth["x"].size, truth["x"].size]
 
 
-def test_defaults_look_again_at_the_empty_positions_of_a_detected_lattice(tmp_path, data):
-    """Without -spacing: the 4 pts/m² stand's tops lie on a 3 x 2 m lattice, so its empty
-    positions get the second look (F >= 0.97 against the truth, no stocking report);
-    MixedConifer's do not, and its trees are the same as with -planting none."""
+def test_defaults_look_again_at_the_empty_positions_of_a_detected_lattice(tmp_path, data,
+                                                                          monkeypatch):
+    """Without -spacing or stands: the 4 pts/m² stand is one planted block, read as a stand
+    (its lattice 3 x 2 m, F >= 0.97 against the truth, its stocking reported). Where no
+    block is made (the fallback), its tops lie on a 3 x 2 m lattice, so its empty positions
+    get the second look (F >= 0.97, no stocking report); MixedConifer's do not, and its
+    trees are the same as with -planting none."""
     from pyproj import CRS as PCRS
 
+    import lidartrees_gis.als.chain as chain
     from lidartrees_gis.io.lasout import write_points
     from lidartrees_gis.als.chain import trees_run
     from lidartrees_gis.synthetic import CRS, StandParams, make_stand
@@ -570,6 +576,10 @@ def test_defaults_look_again_at_the_empty_positions_of_a_detected_lattice(tmp_pa
         return evaluate_trees(t["x"].to_numpy(), t["y"].to_numpy(), t["height"].to_numpy(),
                               truth["x"], truth["y"], truth["height"])["all"]
 
+    block = run(f)
+    assert block["stands"] == 1 and block["lattice"] == "found" and block["spacing"] == "3x2"
+    assert f_score(block)["f_score"] >= 0.97 and block["stocking_pct"] is not None
+    monkeypatch.setattr(chain, "wants_blocks", lambda *a: False)
     auto, off = run(f), run(f, planting="none")
     assert auto["planting_detected"] == "3.00x2.00" and auto["gap_trees"] >= 10
     assert off["planting_detected"] is None and off["gap_trees"] == 0
@@ -587,13 +597,15 @@ def test_defaults_look_again_at_the_empty_positions_of_a_detected_lattice(tmp_pa
         TreeParams(planting="yes")
 
 
-def test_defaults_find_the_lattice_of_a_tall_closed_stand(tmp_path):
+def test_defaults_find_the_lattice_of_a_tall_closed_stand(tmp_path, monkeypatch):
     """Crowns 4 m wide at 3 x 2 m, 10 % missing, 12 % suppressed: a third of the trees merge
     along the rows, so the neighbours' directions give no lattice; the positions' spectrum
-    does, and the second look finds the trees (2 in 3 without it)."""
+    does, and the second look finds the trees (2 in 3 without it): as the stand's planted
+    block (the defaults), and in the tiles' own look where no block is made."""
     import pyproj
     from scipy.spatial import cKDTree
 
+    import lidartrees_gis.als.chain as chain
     from lidartrees_gis.als.chain import trees_run
     from lidartrees_gis.io.lasout import write_points
     from lidartrees_gis.synthetic import CRS, FarmParams, make_farm
@@ -603,14 +615,23 @@ def test_defaults_find_the_lattice_of_a_tall_closed_stand(tmp_path):
     pts, truth = make_farm(p)
     f = tmp_path / "tall.laz"
     write_points(f, pts.x, pts.y, pts.z, crs=pyproj.CRS(CRS), classification=pts.classification)
+    tt = truth["trees"]
+
+    def check(r):
+        t = r["layers"]["tree_tops"]
+        d, i = cKDTree(np.column_stack([tt["x"], tt["y"]])).query(
+            np.column_stack([t.geometry.x, t.geometry.y]))
+        found = np.unique(i[d < 1.0]).size
+        assert found >= 0.97 * tt["x"].size  # 0.64 before the spectrum's look
+        assert len(t) <= 1.12 * tt["x"].size  # tops on neighbours' crowns at missing positions
+
     r = trees_run(f, None)
-    t, tt = r["layers"]["tree_tops"], truth["trees"]
+    assert r["stands"] == 1 and r["lattice"] == "found" and r["spacing"] == "3x2"
+    check(r)
+    monkeypatch.setattr(chain, "wants_blocks", lambda *a: False)
+    r = trees_run(f, None)
     assert r["planting_detected"] == "3.00x2.00"
-    d, i = cKDTree(np.column_stack([tt["x"], tt["y"]])).query(
-        np.column_stack([t.geometry.x, t.geometry.y]))
-    found = np.unique(i[d < 1.0]).size
-    assert found >= 0.97 * tt["x"].size  # 0.64 before the spectrum's look
-    assert len(t) <= 1.12 * tt["x"].size  # tops on neighbours' crowns at missing positions
+    check(r)
 
 
 def test_planting_grid_of_a_large_stand_is_fitted_on_a_sample():

@@ -134,10 +134,11 @@ def window_measures(s, params=None) -> dict | None:
         cs = out["crown_scale"] = crown_scale(chm, res, min_height=params.min_height)
     if params.method == "rg":
         out["top"] = _smoothed_top(chm, res, params, cs)
-    if params.spacing is None and params.looks_for_lattice and canopy.size:
-        from ..plantation.canopy_lattice import canopy_rows
+    if (params.spacing == "auto" or params.spacing is None and params.looks_for_lattice) \
+            and canopy.size:
+        from ..plantation.canopy_lattice import canopy_rows_seen
 
-        out["rows"] = canopy_rows(chm, res)  # planting rows the canopy shows, or None
+        out["rows"] = canopy_rows_seen(chm, res)  # the planting rows its parts show
     return out
 
 
@@ -320,7 +321,7 @@ def plan_area(area, surface: SurfaceOptions, tiling: TilingOptions, *, runner, p
     canopy = sum(1 for m in measures if np.isfinite(m["p95"]))
     plan = AreaPlan(res, density, stats, cs, source, hd, max(tops) if tops else None,
                     len(windows), tiles, buf, ts, canopy,
-                    tuple(m["rows"] for m in measures if m.get("rows") is not None))
+                    tuple(r for m in measures for r in (m.get("rows") or ())))
     return plan, kept
 
 

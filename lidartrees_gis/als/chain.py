@@ -35,6 +35,7 @@ from .sinks import (GpkgTreeLayers, QuickLook, Tally, TreeLayers, TreesSummary, 
                     sidecar)
 from .surfaces import SurfaceOptions, box_surfaces
 from ..plantation.stands import StandsTally, write_stand_csv
+from .planted import BLOCKS_SOURCE, planted_stands, wants_blocks
 from .tile import tile_first_tops, tile_trees, warn_sparse_plantation
 from .trees import TreeParams, area_window_corner, auto_smoothing
 
@@ -264,6 +265,13 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
                     top_height=plan.top_height)
         if p.tops_finder == "treex":  # the windows start at the area's first cell (seed 001)
             p = replace(p, window_corner=area_window_corner(area, plan.res))
+        first = None  # the first pass over the tiles, when the blocks needed it
+        if stands is None and isinstance(area, Catalog) and wants_blocks(p, plan):
+            prog.update(0.45, "planted blocks")
+            stands, first = planted_stands(runner, area, p, plan, surface, ready,
+                                           SubProgress(prog, 0.45, 0.6))
+            if stands is not None and p.spacing is None:  # each block its lattice, a stand's
+                p, by_stands = replace(p, spacing="auto"), True
         if p.spacing is not None and isinstance(area, Catalog) and not by_stands:
             warn_sparse_plantation(_density(area, plan, ready, runner))
         summary = TreesSummary()
@@ -276,7 +284,8 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
             grids, start = None, 0.45
             if p.spacing is not None and ready is None:  # plantation mode over tiles
                 grids, start = _area_grids(runner, area, p, plan, surface, stands,
-                                           SubProgress(prog, 0.45, 0.7)), 0.7
+                                           SubProgress(prog, 0.45 if first is None else 0.6,
+                                                       0.7), first), 0.7
             args = (area, p, plan, surface, bool(chm_out or png), stands, grids)
             n = len(plan.tiles)
             for done, r in enumerate(run_tiles(runner, tile_trees, plan, args, ready,
@@ -303,7 +312,8 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
                 srows = tally.rows(plan.res, p.spacing)
                 if by_stands and any(r.get("lattice") == "found" for r in srows):
                     warn_sparse_plantation(_density(area, plan, ready, runner))
-                tally.check_cover(srows)
+                if stands.source != BLOCKS_SOURCE:  # blocks lie where the tops are
+                    tally.check_cover(srows)
                 if stand_csv:
                     write_stand_csv(sinks["stand_csv"], srows, out.table)
             sinks["layers"].finish(row, p.spacing is not None,
@@ -356,7 +366,8 @@ def warn_rows_without_lattice(plan: AreaPlan, row: dict, p: TreeParams) -> None:
           "one planting")
 
 
-def _area_grids(runner, area, p: TreeParams, plan: AreaPlan, surface, stands, progress) -> dict:
+def _area_grids(runner, area, p: TreeParams, plan: AreaPlan, surface, stands, progress,
+                first=None) -> dict:
     """Plantation mode over tiles: each stand's planting lattice fitted once, on the tops every
     tile finds first in its core (:func:`~lidartrees_gis.als.tile.tile_first_tops`), as a run
     on one file fits it on all its tops: the tiles then count their positions on the same
@@ -367,11 +378,19 @@ def _area_grids(runner, area, p: TreeParams, plan: AreaPlan, surface, stands, pr
 
     # labelled apart from the trees' tiles: nothing kept for -resume, and a tile set aside
     # (-on_error skip) is told as left out of the lattices
-    found = list(runner.map(tile_first_tops, list(plan.tiles), (area, p, plan, surface, stands),
-                            progress=progress, inner_progress=True, label="lattice tile"))
+    if first is None:
+        found = list(runner.map(tile_first_tops, list(plan.tiles),
+                                (area, p, plan, surface, stands), progress=progress,
+                                inner_progress=True, label="lattice tile"))
+    else:  # made for the planted blocks (als.planted): each top's block found here
+        found = first
     if not found:
         return {"all": None}
     x, y, z = (np.concatenate([np.asarray(r[k]) for r in found]) for k in ("x", "y", "zone"))
+    if first is not None and stands is not None:
+        from ..plantation.stands import locate
+
+        z = locate(stands, x, y)
     from ..plantation.positions import add_anchors
     from ..plantation.scan import merge_waves
 

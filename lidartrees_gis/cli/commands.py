@@ -234,7 +234,9 @@ COMMANDS = {
                "or auto (found under the tops, per stand with -stands); "
                "each empty planting position classified missing, suppressed or uncertain (gaps "
                "layer), and stocking, added to the output. Default: auto with -stands (a stand "
-               "that shows no lattice keeps the defaults' trees), none without", flag="-spacing"),
+               "that shows no lattice keeps the defaults' trees); without, auto over the "
+               "planted blocks between roads where the canopy shows planting rows",
+               flag="-spacing"),
          Param("tops", "choice", "Tree tops: aw = adaptive window (crown scale x height); lm = "
                "8-neighbour maxima, one per plateau (Castro 2006); strict = strictly higher than "
                "all 8 neighbours, grid-border cells excluded (Castro's literal rule); treex = "

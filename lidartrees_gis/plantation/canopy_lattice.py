@@ -192,6 +192,30 @@ def canopy_rows_only(spectrum, cell: float = 0.0) -> str | None:
 
 #: :func:`canopy_rows` reads at most this square (m) of a canopy, its centre's
 CANOPY_ROWS_SIDE = 150.0
+#: :func:`canopy_rows_seen` reads squares of this side (m): a small square holds one
+#: planting's rows (two at right angles to each other share a larger one's power) ...
+CANOPY_ROWS_PART = 60.0
+#: ... at most this many a side
+CANOPY_ROWS_PARTS = 3
+
+
+def canopy_rows_seen(chm, res: float) -> list:
+    """The planting rows (:func:`canopy_rows`) of a canopy and of squares of
+    :data:`CANOPY_ROWS_PART` m spread over it (at most :data:`CANOPY_ROWS_PARTS` a side),
+    those that show any: ``[(apart m, azimuth °), ...]``."""
+    a = np.asarray(chm, float)
+    n = max(8, int(round(CANOPY_ROWS_PART / res)))
+    whole = canopy_rows(a, res)
+    out = [] if whole is None else [whole]
+    for r0 in np.unique(np.linspace(0, max(a.shape[0] - n, 0), CANOPY_ROWS_PARTS).astype(int)):
+        for c0 in np.unique(np.linspace(0, max(a.shape[1] - n, 0),
+                                        CANOPY_ROWS_PARTS).astype(int)):
+            part = a[r0:r0 + n, c0:c0 + n]
+            if np.isfinite(part).mean() >= 0.5:
+                found = canopy_rows(part, res)
+                if found is not None:
+                    out.append(found)
+    return out
 
 
 def canopy_rows(chm, res: float):

@@ -139,6 +139,19 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
                 if why:
                     out[("why", k)] = why
 
+    refused = set()
+    if auto:  # a stand whose tops leave its lattice's rows in a part of it has none
+        from .blocks import OFF_ROWS_MAX, off_rows_share
+
+        for k in keys:
+            share = off_rows_share(own[k], *tops_of(k)) if own.get(k) is not None else 0.0
+            if share > OFF_ROWS_MAX:
+                own[k] = None
+                refused.add(k)
+                out[("why", k)] = (f"no planting lattice: {100 * share:.0f} % of its tops lie "
+                                   "in parts off the rows the others follow (two plantings "
+                                   "with no road between them, or rows that bend)")
+
     def all_tops():
         if "all" not in out:
             if "all" not in own:
@@ -156,7 +169,8 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
     if top_zone is None:
         return out
     for k in keys:
-        out[k] = own[k] if own[k] is not None or k in scan_only else all_tops()
+        out[k] = own[k] if own[k] is not None or k in scan_only or k in refused \
+            else all_tops()
         if out[k] is not None:
             out[("span", k)] = row_spans(out[k], *tops_of(k))
     return out

@@ -364,8 +364,8 @@
       <translation>Espaçamento de plantio (linhas x plantas)</translation>
     </message>
     <message>
-      <source>Plantation mode: planting spacing ROWSxTREES in m, e.g. 3x2, or auto (found under the tops, per stand with -stands); each empty planting position classified missing, suppressed or uncertain (gaps layer), and stocking, added to the output. Default: auto with -stands (a stand that shows no lattice keeps the defaults' trees), none without</source>
-      <translation>Modo plantio: espaçamento de plantio LINHASxPLANTAS em m, p. ex. 3x2, ou auto (encontrado sob os topos, por talhão com -stands); cada cova vazia classificada como falha, dominada ou incerta (camada gaps), e o estoque, acrescentados à saída. Padrão: auto com -stands (um talhão que não mostra grade de plantio fica com as árvores do padrão); sem -stands, nenhum</translation>
+      <source>Plantation mode: planting spacing ROWSxTREES in m, e.g. 3x2, or auto (found under the tops, per stand with -stands); each empty planting position classified missing, suppressed or uncertain (gaps layer), and stocking, added to the output. Default: auto with -stands (a stand that shows no lattice keeps the defaults' trees); without, auto over the planted blocks between roads where the canopy shows planting rows</source>
+      <translation>Modo plantio: espaçamento de plantio LINHASxPLANTAS em m, p. ex. 3x2, ou auto (encontrado sob os topos, por talhão com -stands); cada cova vazia classificada como falha, dominada ou incerta (camada gaps), e o estoque, acrescentados à saída. Padrão: auto com -stands (um talhão que não mostra grade de plantio fica com as árvores do padrão); sem -stands, auto nos blocos plantados entre os carreadores onde o dossel mostra linhas de plantio</translation>
     </message>
     <message>
       <source>Tree-top rule</source>
@@ -1066,6 +1066,10 @@
     <message>
       <source>Area-based approach (Næsset, E. (2002), Remote Sensing of Environment 80, 88-99); Schumacher, F. X. &amp; Hall, F. S. (1933) volume equation; eucalyptus plantations: Silva, C. A. et al. (2016), Forestry. Model form, intervals and limits: docs/VOLUME.md.</source>
       <translation>Abordagem de área (Næsset, E. (2002), Remote Sensing of Environment 80, 88-99); equação de volume de Schumacher, F. X. &amp; Hall, F. S. (1933); plantios de eucalipto: Silva, C. A. et al. (2016), Forestry. Forma do modelo, intervalos e limites: docs/VOLUME.md.</translation>
+    </message>
+    <message>
+      <source>Plantation mode: planting spacing ROWSxTREES in m, e.g. 3x2, or auto (found under the tops, per stand with -stands); each empty planting position classified missing, suppressed or uncertain (gaps layer), and stocking, added to the output. Default: auto with -stands (a stand that shows no lattice keeps the defaults' trees), none without</source>
+      <translation type="vanished">Modo plantio: espaçamento de plantio LINHASxPLANTAS em m, p. ex. 3x2, ou auto (encontrado sob os topos, por talhão com -stands); cada cova vazia classificada como falha, dominada ou incerta (camada gaps), e o estoque, acrescentados à saída. Padrão: auto com -stands (um talhão que não mostra grade de plantio fica com as árvores do padrão); sem -stands, nenhum</translation>
     </message>
     <message>
       <source>Plantation mode: planting spacing ROWSxTREES in m, e.g. 3x2, or auto (found under the tops, per stand with -stands); each empty planting position classified missing, suppressed or uncertain (gaps layer), and stocking, added to the output</source>
