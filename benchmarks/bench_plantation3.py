@@ -87,7 +87,8 @@ def run_farm(d: Path, name: str, python: str) -> list:
             continue
         layers = {n for n, _ in pyogrio.list_layers(out)}
         tops = gpd.read_file(out, layer="tree_tops")
-        stands = gpd.read_file(out, layer="stands") if "stands" in layers else \
+        # without -stands the output's stands are its planted blocks: scored by the farm's
+        stands = gpd.read_file(out, layer="stands") if extra is not None else \
             _stands_of(tops, d)
         gaps = gpd.read_file(out, layer="gaps") if "gaps" in layers else gpd.GeoDataFrame()
         for s in truth:

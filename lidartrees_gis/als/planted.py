@@ -47,7 +47,7 @@ def planted_stands(runner, area, p: TreeParams, plan: AreaPlan, surface, ready=N
                 for k in ("x", "y"))
     import shapely
 
-    rows = max(a for a, _ in plan.canopy_rows)
+    rows = float(np.median([a for a, _ in plan.canopy_rows]))  # one window's may be off
     box = shapely.box(*area.extent)  # a block reaches past its outer tops, not the data's
     polys = [g for g in (shapely.intersection(p, box) for p in planted_blocks(x, y, rows))
              if not g.is_empty]
