@@ -121,3 +121,23 @@ def test_a_natural_forest_gets_no_blocks(data, name):
 
     summary = lt.find_trees(data(name))[2]
     assert "stands" not in summary
+
+
+def test_copies_of_a_natural_forest_side_by_side_get_no_blocks(data, tmp_path):
+    """Four copies of Megaplot on a 230 m grid (benchmarks/bench_chain.py's): the copies'
+    straight clearing edges repeat every 230 m, which puts power in one direction at every
+    frequency, but no planting rows: no blocks, and the defaults' trees."""
+    import laspy
+
+    from lidartrees_gis import api as lt
+    from lidartrees_gis.als.trees import TreeParams
+
+    for i in range(4):
+        las = laspy.read(data("lidR_extdata/Megaplot.laz"))
+        las.X = las.X + int(round(230.0 * (i % 2) / las.header.scales[0]))
+        las.Y = las.Y + int(round(230.0 * (i // 2) / las.header.scales[1]))
+        las.write(tmp_path / f"mp_{i}.laz")
+    tops, _, summary = lt.find_trees(tmp_path)
+    assert "stands" not in summary
+    plain = lt.find_trees(tmp_path, params=TreeParams(planting="none"))[0]
+    assert len(tops) == len(plain) > 4000

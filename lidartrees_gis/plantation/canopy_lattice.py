@@ -197,6 +197,10 @@ CANOPY_ROWS_SIDE = 150.0
 CANOPY_ROWS_PART = 60.0
 #: ... at most this many a side
 CANOPY_ROWS_PARTS = 3
+#: :func:`canopy_rows`' peak must also beat its direction's median over the row periods this
+#: many times: a straight line (a road's edge, the seam between two files) puts power in one
+#: direction at every frequency, planting rows at their period
+CANOPY_ROWS_RIDGE = 8.0
 
 
 def canopy_rows_seen(chm, res: float) -> list:
@@ -223,7 +227,8 @@ def canopy_rows(chm, res: float):
     spectrum's strongest peak among the periods of planting rows (:data:`CANOPY_ROW_MIN` to
     :data:`SPECTRAL_PERIODS`' longest), each frequency's powers over their median over the
     directions, beyond :data:`CANOPY_CHANCE`'s first level (as :func:`canopy_lattice_guess`
-    reads its first axis); at most the central :data:`CANOPY_ROWS_SIDE` metres are read."""
+    reads its first axis) and :data:`CANOPY_ROWS_RIDGE` times its direction's median; at
+    most the central :data:`CANOPY_ROWS_SIDE` metres are read."""
     a = np.asarray(chm, float)
     n = max(8, int(round(CANOPY_ROWS_SIDE / res)))
     r0, c0 = max(0, (a.shape[0] - n) // 2), max(0, (a.shape[1] - n) // 2)
@@ -235,7 +240,8 @@ def canopy_rows(chm, res: float):
     med = np.median(p, axis=0)
     r = p / np.where(med > 0, med, np.inf)[None, :]
     i, j = np.unravel_index(int(np.argmax(r)), r.shape)
-    if r[i, j] < _level(r.size, CANOPY_CHANCE[0], 1.0):
+    if r[i, j] < _level(r.size, CANOPY_CHANCE[0], 1.0) \
+            or r[i, j] < CANOPY_ROWS_RIDGE * np.median(r[i, :]):
         return None
     return 1.0 / float(CANOPY_FREQS[keep][j]), (float(np.degrees(CANOPY_THETAS[i])) + 90.0) % 180.0
 
