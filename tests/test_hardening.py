@@ -212,6 +212,29 @@ def test_overwrite_replaces_only_the_layers_written(tmp_path, tiles):
     assert pyogrio.read_dataframe(out, layer="plots")["note"].tolist() == ["field plot"]
     tops = pyogrio.read_dataframe(out, layer="tree_tops")
     assert len(tops) > 100 and "note" not in tops.columns
+    # the stand is a planted block: gaps and stands layers; a run that writes none of them
+    # (-planting none) must not leave the earlier run's beside its own trees
+    assert {"gaps", "stands"} <= layers
+    assert main(["trees", str(f), str(out), "-overwrite", "-q", "-planting", "none", *crs,
+                 *tiles]) == 0
+    assert {name for name, _ in pyogrio.list_layers(out)} == \
+        {"plots", "tree_tops", "crowns", "summary", "layer_styles"}
+    assert pyogrio.read_dataframe(out, layer="plots")["note"].tolist() == ["field plot"]
+    import sqlite3
+
+    con = sqlite3.connect(out)  # nothing of the dropped layers left behind
+    assert con.execute("PRAGMA integrity_check").fetchone() == ("ok",)
+    names = " ".join(r[0] for r in con.execute("SELECT name FROM sqlite_master"))
+    styled = {r[0] for r in con.execute("SELECT f_table_name FROM layer_styles")}
+    con.close()
+    assert "gaps" not in names and "stands" not in names and styled == {"tree_tops", "crowns"}
+    # a file holding only a trees run's layers is written anew: no earlier layer in it
+    only = tmp_path / "only.gpkg"
+    assert main(["trees", str(f), str(only), "-q", *crs, *tiles]) == 0
+    assert main(["trees", str(f), str(only), "-overwrite", "-q", "-planting", "none", *crs,
+                 *tiles]) == 0
+    assert {name for name, _ in pyogrio.list_layers(only)} == \
+        {"tree_tops", "crowns", "summary", "layer_styles"}
 
 
 def test_stale_las_header_bounds_and_counts_are_warned(small_las, tmp_path, capsys):

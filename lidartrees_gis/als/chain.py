@@ -32,7 +32,7 @@ from ..io.provenance import raster_tags, repro_meta, repro_report
 from ..progress import SubProgress, as_progress
 from .area import AreaPlan, one_tile_area, plan_area
 from .sinks import (GpkgTreeLayers, QuickLook, Tally, TreeLayers, TreesSummary, TreesTable,
-                    sidecar)
+                    sidecar, tree_layer_names)
 from .surfaces import SurfaceOptions, box_surfaces
 from ..plantation.stands import StandsTally, write_stand_csv
 from .planted import BLOCKS_SOURCE, planted_stands, wants_blocks
@@ -482,7 +482,8 @@ def _trees_sinks(stack, input, output, area, p, plan, surface, out, csv, chm_out
         from ..io.vector import start_from_existing
 
         tmp = stack.enter_context(atomic_output(output, out.overwrite, append=out.append))
-        existing = start_from_existing(Path(output), tmp, out.append)
+        existing = start_from_existing(Path(output), tmp, out.append,
+                                       owned=tree_layer_names(out.nln).values())
         sinks["layers"] = GpkgTreeLayers(tmp, area.crs, p.method, out.nln, existing=existing,
                                          metadata=_trees_meta(input, area, p, plan, surface),
                                          layer_options=out.layer_options, stand_ids=ids)

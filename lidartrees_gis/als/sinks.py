@@ -193,14 +193,23 @@ def gap_arrays(st: dict, res: float, tile, stand_ids=None) -> dict:
     return out
 
 
+#: the layers a trees run writes (under ``-nln``'s prefix); ``-overwrite`` replaces them all,
+#: also those this run does not write (an earlier run's gaps or stands would not be its trees')
+TREE_LAYERS = ("tree_tops", "crowns", "gaps", "summary", "stands")
+
+
+def tree_layer_names(nln: str = "") -> dict:
+    """``{layer: name in the file}`` of :data:`TREE_LAYERS` under the prefix ``nln``."""
+    return {k: f"{nln}{k}" for k in TREE_LAYERS}
+
+
 class TreeLayers:
     """The layers of a trees run, fed tile by tile: ``add`` a tile's result, ``finish`` with
     the summary row. This base keeps them in memory (the Python API's frames)."""
 
     def __init__(self, crs, method: str, nln: str = "", stand_ids=None):
         self.crs, self.method, self.stand_ids = crs, method, stand_ids
-        self.names = {k: f"{nln}{k}" for k in ("tree_tops", "crowns", "gaps", "summary",
-                                                 "stands")}
+        self.names = tree_layer_names(nln)
         self.parts, self.gaps, self.summary, self.stands = [], [], None, None
 
     def add(self, r: dict, flush: bool = False) -> None:

@@ -17,10 +17,12 @@ def _layers(p):
     return [name for name, _ in pyogrio.list_layers(p)]
 
 
-def start_from_existing(p, tmp, append) -> set:
+def start_from_existing(p, tmp, append, owned=()) -> set:
     """Begin the temporary copy of GeoPackage ``p`` from the existing file, if any: ``-append``
-    adds to its layers (their names are returned), ``-overwrite`` replaces only the layers then
-    written (as ogr2ogr) and keeps the others. A file that is not a GeoPackage is replaced, or
+    adds to its layers (their names are returned), ``-overwrite`` replaces the layers
+    ``owned`` (those the command writes; dropped from the copy even where this run writes
+    none) and keeps the others, as ogr2ogr; a file holding only those layers (and their
+    styles) is not copied but written anew. A file that is not a GeoPackage is replaced, or
     refused with ``append``."""
     p = Path(p)
     if not p.exists():
@@ -31,8 +33,45 @@ def start_from_existing(p, tmp, append) -> set:
         if append:
             raise InputError(f"{p}: -append: the file is not a GeoPackage") from None
         return set()
+    owned = set(owned)
+    if not append and names <= owned | {"layer_styles"}:
+        return set()
     shutil.copyfile(p, tmp)
-    return names if append else set()
+    if append:
+        return names
+    drop_layers(tmp, names & owned)
+    return set()
+
+
+def drop_layers(gpkg, layers) -> None:
+    """Remove the tables ``layers`` from GeoPackage ``gpkg`` with their spatial indexes,
+    registrations, column descriptions, metadata links and styles."""
+    import sqlite3
+
+    if not layers:
+        return
+    con = sqlite3.connect(str(gpkg))
+    try:
+        have = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+        for t in layers:
+            for (col,) in con.execute("SELECT column_name FROM gpkg_geometry_columns WHERE "
+                                      "table_name = ?", (t,)).fetchall():
+                con.execute(f'DROP TABLE IF EXISTS "rtree_{t}_{col}"')
+            con.execute(f'DROP TABLE IF EXISTS "{t}"')
+            for meta, key in (("gpkg_geometry_columns", "table_name"),
+                              ("gpkg_extensions", "table_name"),
+                              ("gpkg_data_columns", "table_name"),
+                              ("gpkg_metadata_reference", "table_name"),
+                              ("gpkg_ogr_contents", "table_name"),
+                              ("layer_styles", "f_table_name"), ("gpkg_contents", "table_name")):
+                if meta in have:
+                    con.execute(f"DELETE FROM {meta} WHERE {key} = ?", (t,))
+        if {"gpkg_metadata", "gpkg_metadata_reference"} <= have:
+            con.execute("DELETE FROM gpkg_metadata WHERE id NOT IN "
+                        "(SELECT md_file_id FROM gpkg_metadata_reference)")
+        con.commit()
+    finally:
+        con.close()
 
 
 def write_gpkg(path, layers: dict, *, overwrite=False, append=False, layer_options=None,
@@ -73,7 +112,7 @@ def _write_gpkg(p, layers, overwrite, append, layer_options, metadata, styles) -
                         f"{len(df):,} trees (same tree_id: the same area twice?); use -overwrite "
                         "to replace the layers, or append other areas only")
     with atomic_output(p, overwrite, append=append) as tmp:
-        existing = start_from_existing(p, tmp, append)
+        existing = start_from_existing(p, tmp, append, owned=layers)
         meta = {k: (v if isinstance(v, str) else json.dumps(v, default=str))
                 for k, v in (metadata or {}).items()}
         import warnings
