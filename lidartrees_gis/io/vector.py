@@ -53,7 +53,10 @@ def drop_layers(gpkg, layers) -> None:
     con = sqlite3.connect(str(gpkg))
     try:
         have = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+        refs = {"gpkg_metadata", "gpkg_metadata_reference"} <= have
         for t in layers:
+            md = [r[0] for r in con.execute("SELECT md_file_id FROM gpkg_metadata_reference "
+                                            "WHERE table_name = ?", (t,))] if refs else []
             for (col,) in con.execute("SELECT column_name FROM gpkg_geometry_columns WHERE "
                                       "table_name = ?", (t,)).fetchall():
                 con.execute(f'DROP TABLE IF EXISTS "rtree_{t}_{col}"')
@@ -66,9 +69,9 @@ def drop_layers(gpkg, layers) -> None:
                               ("layer_styles", "f_table_name"), ("gpkg_contents", "table_name")):
                 if meta in have:
                     con.execute(f"DELETE FROM {meta} WHERE {key} = ?", (t,))
-        if {"gpkg_metadata", "gpkg_metadata_reference"} <= have:
-            con.execute("DELETE FROM gpkg_metadata WHERE id NOT IN "
-                        "(SELECT md_file_id FROM gpkg_metadata_reference)")
+            for i in md:  # the table's own metadata, unless another reference holds it
+                con.execute("DELETE FROM gpkg_metadata WHERE id = ? AND id NOT IN (SELECT "
+                            "md_file_id FROM gpkg_metadata_reference)", (i,))
         con.commit()
     finally:
         con.close()
