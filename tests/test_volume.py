@@ -432,6 +432,35 @@ def test_units_and_coefficients_a_crew_gets_wrong_are_refused(tmp_path):
         vol.sum() / 0.04, rel=1e-3)
 
 
+def test_a_circumference_in_the_dap_column_is_refused_by_the_plots_basal_area(tmp_path):
+    """CAP typed under ``dap`` (its ratio to HT, 2.5, looks like a stout tree) gives pi² times
+    the basal area: plot 7's 466 m²/ha, more than any stand carries, is refused naming the plot
+    and the column; the same numbers under ``cap`` give the true 47 m²/ha."""
+    from lidartrees_gis.errors import InputError
+    from lidartrees_gis.inventory.field import (Equation, complete_trees, plot_figures,
+                                                read_trees)
+
+    rng = np.random.default_rng(1)
+    ht = rng.uniform(22, 28, 60)
+    dap = rng.normal(20.0, 1.5, 60)
+    cap = np.pi * dap
+    for col, ok in (("dap", False), ("cap", True)):
+        rows = [f"parcela;arvore;{col};ht"] + [f"7;{i + 1};{str(round(cap[i], 1)).replace('.', ',')};"
+                                              f"{str(round(ht[i], 1)).replace('.', ',')}"
+                                              for i in range(60)]
+        path = tmp_path / f"{col}.csv"
+        path.write_text("\n".join(rows) + "\n")
+        t = complete_trees(read_trees(path), Equation(0.000049, 1.85, 1.05))
+        if ok:
+            ba = plot_figures(t, ["7"], [400.0])["basal_area_m2_ha"][0]
+            assert ba == pytest.approx(np.sum(np.pi * (dap / 200) ** 2) / 0.04, rel=1e-3)
+            assert 40 < ba < 55
+            continue
+        with pytest.raises(InputError, match=r"dap.csv: plot 7's basal area is 4\d\d m²/ha "
+                           r"from its DAP column 'dap' .*circumference \(CAP\)"):
+            plot_figures(t, ["7"], [400.0])
+
+
 def test_no_stand_below_nothing_and_outside_the_plots_said(recwarn):
     """A linear model applied to a young stand without plots (its metrics below every plot's)
     would go negative: the stand gets 0 inside its interval, and one warning names it."""

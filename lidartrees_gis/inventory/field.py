@@ -44,6 +44,9 @@ DAP_PER_HT_MAX = 3.0
 #: the median artificial form factor V / (g·HT) a tree table's volumes may have (stems:
 #: 0.35-0.6; a b0 10 times off, or dm³, falls outside)
 FORM_RANGE = (0.15, 1.5)
+#: a plot basal area (m²/ha) above this is refused: few forests of any kind carry it (plantations
+#: 10-60), a circumference (CAP) read as DAP gives pi² times the true figure
+BA_MAX_M2_HA = 250.0
 
 
 @dataclass(frozen=True)
@@ -157,7 +160,8 @@ def read_trees(path) -> dict:
     keep = ~dead
     return {"plot": np.asarray(plot, dtype=object)[keep], "tree": tree[keep], "dap": dap[keep],
             "ht": np.where(ht > 0, ht, np.nan)[keep], "volume": vol[keep],
-            "rows_without_dap": int(dead.sum()), "path": str(path)}
+            "rows_without_dap": int(dead.sum()), "path": str(path),
+            "dap_column": f"{name} column {cols.get('dap', cols.get('cap'))!r}"}
 
 
 def _check_heights(ht, dap, ok, path, cols) -> None:
@@ -291,6 +295,14 @@ def plot_figures(trees: dict, plot_ids, plot_area_m2) -> dict:
     vol = np.bincount(k[sel], weights=trees["volume"][sel], minlength=len(ids))
     ba = np.bincount(k[sel], weights=g, minlength=len(ids))
     mh = np.bincount(k[sel], weights=trees["ht"][sel], minlength=len(ids)) / n
+    top = int(np.argmax(ba / ha))
+    if ba[top] / ha[top] > BA_MAX_M2_HA:
+        raise InputError(f"-trees_table: {trees['path']}: plot {ids[top]}'s basal area is "
+                         f"{ba[top] / ha[top]:.0f} m²/ha from its "
+                         f"{trees.get('dap_column', 'DAP')} (over "
+                         f"{BA_MAX_M2_HA:g}; plantations carry 10-60): a circumference (CAP) in a "
+                         "DAP column (name it cap), or a plot smaller than it is (check "
+                         "-plot_radius)?")
     # the plot volume's sampling variance from its own trees: n s²(v) / area² (what the plot
     # figure would vary by from one plot of these trees to another in the same stand)
     v = trees["volume"][sel]
