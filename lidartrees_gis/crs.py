@@ -211,12 +211,18 @@ DEGREE_SPAN = 1.0
 LOCAL_ORIGIN = 2.0
 
 
-def check_coordinates(crs, bounds, where, *, given: bool = False) -> None:
+#: what a vector layer whose coordinates are not in its CRS needs (not the points' -a_srs)
+LAYER_CRS_FIX = ("give the layer its true CRS (QGIS: Layer Properties > Source > Assigned "
+                 "Coordinate Reference System, then save it; or ogr2ogr -a_srs)")
+
+
+def check_coordinates(crs, bounds, where, *, given: bool = False, fix: str | None = None) -> None:
     """Refuse coordinates that cannot be in ``crs``: a geographic CRS (degrees) with x beyond
     +-180 or y beyond +-90 (metres labelled e.g. EPSG:4326), or a projected CRS whose points
     all lie within +-180, +-90 and :data:`DEGREE_SPAN`, away from the origin (:data:`LOCAL_ORIGIN`), and, read in it, fall outside its area of use (longitude and
     latitude in degrees labelled e.g. UTM). ``bounds`` (xmin, ymin, xmax, ymax); ``where``
-    names the file; ``given``: the CRS came from -a_srs."""
+    names the file; ``given``: the CRS came from -a_srs; ``fix``: what to do instead of the
+    points' -a_srs (a vector layer: give the layer its CRS)."""
     if crs is None or bounds is None:
         return
     x0, y0, x1, y1 = (float(v) for v in bounds)
@@ -224,13 +230,15 @@ def check_coordinates(crs, bounds, where, *, given: bool = False) -> None:
         return
     label = crs_label(crs)
     source = "-a_srs" if given else "the file"
+    what = "the points" if fix is None else "its features"
     extent = f"x {x0:,.2f}..{x1:,.2f}, y {y0:,.2f}..{y1:,.2f}"
     if crs.is_geographic:
         if max(abs(x0), abs(x1)) > 180.0 or max(abs(y0), abs(y1)) > 90.0:
             raise CRSError(
                 f"{where}: coordinates cannot be in the declared CRS: {source} says "
-                f"{label} (degrees) but the points span {extent}, beyond longitude +-180 / "
-                f"latitude +-90 (metres?); give the delivery's projected CRS with -a_srs")
+                f"{label} (degrees) but {what} span {extent}, beyond longitude +-180 / "
+                f"latitude +-90 (metres?); "
+                + (fix or "give the delivery's projected CRS with -a_srs"))
         return
     if not crs.is_projected or max(abs(x0), abs(x1)) > 180.0 or max(abs(y0), abs(y1)) > 90.0 \
             or max(x1 - x0, y1 - y0) > DEGREE_SPAN or max(abs(x0), abs(y0)) < LOCAL_ORIGIN:
@@ -249,6 +257,6 @@ def check_coordinates(crs, bounds, where, *, given: bool = False) -> None:
         return
     raise CRSError(
         f"{where}: coordinates cannot be in the declared CRS: {source} says {label} "
-        f"(metres) but the points span {extent}, which read as metres lie outside its area of use "
-        f"(they look like longitude/latitude in degrees); give -a_srs EPSG:4326 or EPSG:4674 "
-        f"and -t_srs {label.split()[0]}")
+        f"(metres) but {what} span {extent}, which read as metres lie outside its area of use "
+        f"(they look like longitude/latitude in degrees); "
+        + (fix or f"give -a_srs EPSG:4326 or EPSG:4674 and -t_srs {label.split()[0]}"))

@@ -214,6 +214,19 @@ def test_bad_inputs_one_line_no_output(farm, tmp_path, capsys):
     pl.set_crs(None, allow_override=True).to_file(tmp_path / "nocrs.shp")
     a[2] = str(tmp_path / "nocrs.shp")
     assert "no CRS" in _bad(capsys, a, tmp_path, out)
+    # plots and stands whose UTM metres are labelled geographic (SIRGAS 2000, EPSG:4674): said
+    # before reprojecting them to nowhere (their returns were "none above -min_height")
+    pl.set_crs(4674, allow_override=True).to_file(tmp_path / "deg.gpkg")
+    a[2] = str(tmp_path / "deg.gpkg")
+    line = _bad(capsys, a, tmp_path, out)
+    assert line.startswith("lidartrees volume: error: PLOTS: ") and "deg.gpkg" in line and \
+        "EPSG:4674" in line and "beyond longitude" in line and "give the layer its true CRS" in line
+    gpd.read_file(d / "stands.gpkg").set_crs(4674, allow_override=True).to_file(
+        tmp_path / "st_deg.gpkg")
+    b = _args(d, out, "-volume_equation", EQ)
+    b[b.index("-stands") + 1] = str(tmp_path / "st_deg.gpkg")
+    line = _bad(capsys, b, tmp_path, out)
+    assert "-stands: " in line and "st_deg.gpkg" in line and "its features span" in line, line
     # a plot without trees
     extra = gpd.GeoDataFrame({"parcela": [99]}, geometry=[shapely.Point(
         pl.geometry[0].x + 1, pl.geometry[0].y + 30)], crs=pl.crs)

@@ -175,6 +175,9 @@ def load_plots(source, crs=None, *, plot_id: str | None = None,
             raise CRSError(f"PLOTS: {name} has no CRS; give the layer its CRS (the points' are "
                            f"{crs.to_string() if hasattr(crs, 'to_string') else crs})")
         if not gdf.crs.equals(crs):
+            from ..crs import LAYER_CRS_FIX, check_coordinates
+
+            check_coordinates(gdf.crs, gdf.total_bounds, f"PLOTS: {name}", fix=LAYER_CRS_FIX)
             gdf = gdf.to_crs(crs)
     ids = _ids(gdf, plot_id, name)
     kinds = set(gdf.geom_type)
