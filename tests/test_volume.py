@@ -474,6 +474,31 @@ def test_a_circumference_in_the_dap_column_is_refused_by_the_plots_basal_area(tm
             plot_figures(t, ["7"], [400.0])
 
 
+def test_alt_is_a_height_column_and_a_table_without_one_is_named(tmp_path):
+    """``parcela;arv;dap;alt`` (a common field sheet) reads its heights; a table with no height
+    column says so with its columns (it said "only 0 trees with a height"); -plot_radius 0 is
+    named as a radius that must be > 0 (it said "give -plot_radius")."""
+    import shapely
+
+    from lidartrees_gis.errors import InputError
+    from lidartrees_gis.inventory.field import Equation, complete_trees, read_trees
+    from lidartrees_gis.inventory.plots import load_plots
+
+    rows = ["parcela;arv;dap;Alt (m)"] + [f"1;{i};{12 + i % 5},5;{18 + i % 4},2" for i in range(1, 31)]
+    (tmp_path / "alt.csv").write_text("\n".join(rows) + "\n", encoding="cp1252")
+    t = complete_trees(read_trees(tmp_path / "alt.csv"), Equation(0.000049, 1.85, 1.05))
+    assert t["hypsometric"] is None and t["ht"][:5].tolist() == [19.2, 20.2, 21.2, 18.2, 19.2]
+    (tmp_path / "xx.csv").write_text("\n".join(r.replace("Alt (m)", "obs") for r in rows) + "\n")
+    with pytest.raises(InputError, match=r"xx.csv: no HT column \(ht, altura, alt, h\); "
+                       r"columns: parcela, arv, dap, obs"):
+        complete_trees(read_trees(tmp_path / "xx.csv"), Equation(0.000049, 1.85, 1.05))
+    import geopandas as gpd
+
+    g = gpd.GeoDataFrame({"parcela": [1]}, geometry=[shapely.Point(0, 0)], crs=31984)
+    with pytest.raises(InputError, match=r"-plot_radius must be > 0 m, got -5"):
+        load_plots(g, plot_radius=-5.0)
+
+
 def test_no_stand_below_nothing_and_outside_the_plots_said(recwarn):
     """A linear model applied to a young stand without plots (its metrics below every plot's)
     would go negative: the stand gets 0 inside its interval, and one warning names it."""

@@ -29,7 +29,7 @@ FIELD_COLUMNS = {
     "tree": ("arvore", "arv", "tree", "treeid", "idarvore", "numarvore", "fuste", "individuo"),
     "dap": ("dap", "dbh", "dapcm", "dbhcm", "diametro", "d"),
     "cap": ("cap", "cbh", "capcm", "circunferencia", "circ"),
-    "ht": ("ht", "h", "altura", "alturatotal", "height", "htm", "htotal"),
+    "ht": ("ht", "h", "alt", "altm", "altura", "alturatotal", "alturam", "height", "htm", "htotal"),
     "volume": ("volume", "vol", "v", "volm3", "volumem3", "vtcc", "vcc", "volumetotal"),
 }
 #: a DAP median above this (cm) is taken for millimetres and refused
@@ -161,7 +161,8 @@ def read_trees(path) -> dict:
     return {"plot": np.asarray(plot, dtype=object)[keep], "tree": tree[keep], "dap": dap[keep],
             "ht": np.where(ht > 0, ht, np.nan)[keep], "volume": vol[keep],
             "rows_without_dap": int(dead.sum()), "path": str(path),
-            "dap_column": f"{name} column {cols.get('dap', cols.get('cap'))!r}"}
+            "dap_column": f"{name} column {cols.get('dap', cols.get('cap'))!r}",
+            "ht_column": cols.get("ht"), "columns": [str(c) for c in df.columns]}
 
 
 def _check_heights(ht, dap, ok, path, cols) -> None:
@@ -230,6 +231,10 @@ def complete_trees(trees: dict, equation: Equation | None) -> dict:
     dap, ht, vol = t["dap"], t["ht"].copy(), t["volume"].copy()
     missing = ~np.isfinite(ht)
     t["hypsometric"] = None
+    if missing.all() and t.get("columns") is not None and not t.get("ht_column") and \
+            not (np.isfinite(vol).all() and equation is None):
+        raise InputError(f"-trees_table: {t.get('path')}: no HT column (ht, altura, alt, h); "
+                         f"columns: {', '.join(t['columns'])}")
     if missing.any():
         a, b, n, rmse = fit_hypsometric(dap, ht)
         ht[missing] = np.exp(a + b / dap[missing])

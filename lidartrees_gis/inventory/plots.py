@@ -183,9 +183,12 @@ def load_plots(source, crs=None, *, plot_id: str | None = None,
     kinds = set(gdf.geom_type)
     n = len(gdf)
     if kinds <= {"Point"}:
-        if plot_radius is None or not plot_radius > 0:
+        if plot_radius is None:
             raise InputError(f"PLOTS: {name} holds plot centres (points): give -plot_radius "
                              "(e.g. 11.28 for 400 m² circular plots)")
+        if not plot_radius > 0:
+            raise InputError(f"-plot_radius must be > 0 m, got {plot_radius!r} (e.g. 11.28 for "
+                             "400 m² circular plots)")
         x = np.asarray(gdf.geometry.x, np.float64)
         y = np.asarray(gdf.geometry.y, np.float64)
         radius = np.full(n, float(plot_radius))
