@@ -474,6 +474,25 @@ def test_a_circumference_in_the_dap_column_is_refused_by_the_plots_basal_area(tm
             plot_figures(t, ["7"], [400.0])
 
 
+def test_overwrite_drops_the_commands_layers_this_run_does_not_write(farm, tmp_path, capsys):
+    """``volume -approach both`` then ``-approach aba -overwrite`` on one file: the first run's
+    tree_tops are gone (QGIS loaded them beside the new stands); a layer of the user's stays."""
+    import geopandas as gpd
+    import pyogrio
+    import shapely
+
+    d, _, _ = farm
+    out = tmp_path / "vol.gpkg"
+    assert main(_args(d, out, "-volume_equation", EQ, "-approach", "both", "-resamples", "20")) == 0
+    assert {"plots", "stands", "tree_tops"} <= {n for n, _ in pyogrio.list_layers(out)}
+    gpd.GeoDataFrame({"a": [1]}, geometry=[shapely.Point(0, 0)], crs=31984).to_file(
+        out, layer="mine")
+    assert main(_args(d, out, "-volume_equation", EQ, "-resamples", "20", "-overwrite")) == 0
+    assert sorted(n for n, _ in pyogrio.list_layers(out)) == ["layer_styles", "mine", "plots",
+                                                              "stands"]
+    capsys.readouterr()
+
+
 def test_alt_is_a_height_column_and_a_table_without_one_is_named(tmp_path):
     """``parcela;arv;dap;alt`` (a common field sheet) reads its heights; a table with no height
     column says so with its columns (it said "only 0 trees with a height"); -plot_radius 0 is

@@ -110,7 +110,7 @@ def metrics_run(input, output, *, res=20.0, plots=None, plot_id=None, plot_radiu
         result["layers"] = layers
         if output is not None:
             write_gpkg(output, layers, overwrite=out.overwrite, layer_options=out.layer_options,
-                       metadata=meta)
+                       metadata=meta, owned=("plot_metrics", "stand_metrics"))
             for layer in layers:
                 describe_columns(output, layer, METRIC_DOCS)
     else:

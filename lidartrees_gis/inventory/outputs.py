@@ -31,6 +31,10 @@ FIELD_DOCS = {
 }
 
 
+#: every layer ``volume`` writes (``tree_tops`` with the tree approach only)
+VOLUME_LAYERS = ("plots", "stands", "tree_tops")
+
+
 def _stand_fields(prefix, est, area_ha):
     out = {}
     for key, suffix in (("estimate", ""), ("low", "_low"), ("high", "_high")):
@@ -399,7 +403,7 @@ def write(output, side, layers, report, spec, vol_grid, res_aba, out, input, are
         write_gpkg(output, layers, overwrite=out.overwrite, layer_options=out.layer_options,
                    metadata={"volume_report": report},
                    styles={"stands": "volume_stands.qml", "tree_tops": "tree_tops.qml",
-                           "plots": "volume_plots.qml"})
+                           "plots": "volume_plots.qml"}, owned=VOLUME_LAYERS)
         for layer in ("plots", "stands"):
             describe_columns(output, layer, FIELD_DOCS)
     except BaseException:

@@ -78,13 +78,15 @@ def drop_layers(gpkg, layers) -> None:
 
 
 def write_gpkg(path, layers: dict, *, overwrite=False, append=False, layer_options=None,
-               metadata=None, styles=None) -> None:
+               metadata=None, styles=None, owned=()) -> None:
     """Write several layers (name -> GeoDataFrame or DataFrame) to one GeoPackage.
 
     ``append`` adds the layers to an existing file (features appended to same-named layers);
     ``overwrite`` replaces the layers written and keeps the file's other layers (as ogr2ogr
     -overwrite). Work happens on a temporary copy renamed at the end. ``styles``: ``{layer:
     qml file}`` stored as the layers' default QGIS styles (:mod:`lidartrees_gis.io.styles`).
+    ``owned``: the command's other layers, dropped by ``overwrite`` even where this run writes
+    none (a run without trees leaves no earlier run's trees beside its stands).
     """
     import pyogrio
 
@@ -94,10 +96,11 @@ def write_gpkg(path, layers: dict, *, overwrite=False, append=False, layer_optio
     if p.exists() and not (overwrite or append):
         raise OutputExistsError(f"{p}: output exists; use -overwrite to replace it or -append")
     with claim_output(p, wait=append):  # the layers read below are those appended to
-        _write_gpkg(p, layers, overwrite, append, layer_options, metadata, styles)
+        _write_gpkg(p, layers, overwrite, append, layer_options, metadata, styles,
+                    set(layers) | set(owned))
 
 
-def _write_gpkg(p, layers, overwrite, append, layer_options, metadata, styles) -> None:
+def _write_gpkg(p, layers, overwrite, append, layer_options, metadata, styles, owned) -> None:
     import pyogrio
 
     try:
@@ -115,7 +118,7 @@ def _write_gpkg(p, layers, overwrite, append, layer_options, metadata, styles) -
                         f"{len(df):,} trees (same tree_id: the same area twice?); use -overwrite "
                         "to replace the layers, or append other areas only")
     with atomic_output(p, overwrite, append=append) as tmp:
-        existing = start_from_existing(p, tmp, append, owned=layers)
+        existing = start_from_existing(p, tmp, append, owned=owned)
         meta = {k: (v if isinstance(v, str) else json.dumps(v, default=str))
                 for k, v in (metadata or {}).items()}
         import warnings
