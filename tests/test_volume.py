@@ -227,6 +227,11 @@ def test_bad_inputs_one_line_no_output(farm, tmp_path, capsys):
     b[b.index("-stands") + 1] = str(tmp_path / "st_deg.gpkg")
     line = _bad(capsys, b, tmp_path, out)
     assert "-stands: " in line and "st_deg.gpkg" in line and "its features span" in line, line
+    # stands 10 km off the points (the plots on them): said as the plots are, nothing written
+    gpd.read_file(d / "stands.gpkg").translate(10000, 0).to_file(tmp_path / "st_far.gpkg")
+    b[b.index("-stands") + 1] = str(tmp_path / "st_far.gpkg")
+    line = _bad(capsys, b, tmp_path, out)
+    assert "st_far.gpkg: no stand overlaps the points" in line, line
     # a plot without trees
     extra = gpd.GeoDataFrame({"parcela": [99]}, geometry=[shapely.Point(
         pl.geometry[0].x + 1, pl.geometry[0].y + 30)], crs=pl.crs)

@@ -86,9 +86,10 @@ def metrics_run(input, output, *, res=20.0, plots=None, plot_id=None, plot_radiu
         zones.append(p.zones)
         names.append(("plot_metrics", "plot_id", p.ids, p.geoms, p.attrs))
     if stands:
-        from ..plantation.stands import load_stands
+        from ..plantation.stands import check_overlap, load_stands
 
         st = load_stands(stands, area.crs, stand_id)
+        check_overlap(st, area.extent, area.label())
         zones.append(Zones.of_polygons(st.geoms))
         names.append(("stand_metrics", "stand_id", st.ids, st.geoms, None))
     r = area_metrics(area, cells_res=None if gpkg else res, zones=zones, options=options,

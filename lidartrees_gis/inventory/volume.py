@@ -352,7 +352,7 @@ def volume_run(input, plots, output, *, stands, trees_table=None, plot_id=None,
 def _estimate(input, plots, output, stands, trees_table, plot_id, plot_radius, stand_id,
               stand_csv, options, metric, surface, read, tiling, out, prog, side) -> dict:
     """:func:`volume_run` once its outputs are checked and claimed."""
-    from ..plantation.stands import load_stands
+    from ..plantation.stands import check_overlap, load_stands
     from . import outputs as outs
 
     area = open_points(input, read)
@@ -360,6 +360,7 @@ def _estimate(input, plots, output, stands, trees_table, plot_id, plot_radius, s
     check_inside(pl, area.extent, area.label())
     warn_overlaps(pl)
     st = load_stands(stands, area.crs, stand_id)
+    check_overlap(st, area.extent, area.label())
     meas = _plot_measurements(pl, trees_table, options.equation)
     y = meas["figures"]["volume_m3_ha"]
     check_plots(len(pl), "a volume model" if options.approach != "trees" else
