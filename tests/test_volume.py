@@ -232,6 +232,13 @@ def test_bad_inputs_one_line_no_output(farm, tmp_path, capsys):
     b[b.index("-stands") + 1] = str(tmp_path / "st_far.gpkg")
     line = _bad(capsys, b, tmp_path, out)
     assert "st_far.gpkg: no stand overlaps the points" in line, line
+    # no tree table and no volume field: the names read and the layer's fields are said
+    c = _args(d, out)
+    i = c.index("-trees_table")
+    del c[i:i + 2]
+    line = _bad(capsys, c, tmp_path, out)
+    assert "no plot volume field (volume_m3_ha, vol_ha, vtcc_ha, volume or vol; its fields: " \
+        "parcela)" in line, line
     # a plot without trees
     extra = gpd.GeoDataFrame({"parcela": [99]}, geometry=[shapely.Point(
         pl.geometry[0].x + 1, pl.geometry[0].y + 30)], crs=pl.crs)

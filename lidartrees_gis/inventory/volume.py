@@ -105,8 +105,10 @@ def _plot_measurements(plots, trees_table, equation) -> dict:
         cols = {normalise(c): c for c in plots.attrs.columns}
         col = next((cols[f] for f in PLOT_VOLUME_FIELDS if f in cols), None)
         if col is None:
+            fields = ", ".join(map(str, plots.attrs.columns)) or "none"
             raise InputError(f"PLOTS: {plots.source}: no tree table (-trees_table) and no plot "
-                             "volume field (volume_m3_ha); give one of them")
+                             "volume field (volume_m3_ha, vol_ha, vtcc_ha, volume or vol; its "
+                             f"fields: {fields}); give one of them")
         import pandas as pd
 
         v = pd.to_numeric(plots.attrs[col].astype(str).str.replace(",", "."), errors="coerce")
