@@ -528,6 +528,12 @@ def test_alt_is_a_height_column_and_a_table_without_one_is_named(tmp_path):
     g = gpd.GeoDataFrame({"parcela": [1]}, geometry=[shapely.Point(0, 0)], crs=31984)
     with pytest.raises(InputError, match=r"-plot_radius must be > 0 m, got -5"):
         load_plots(g, plot_radius=-5.0)
+    from lidartrees_gis.errors import DataWarning
+
+    with pytest.warns(DataWarning, match=r"-plot_radius 11.28 ignored: PLOTS GeoDataFrame holds "
+                      "polygons"):
+        p = load_plots(g.set_geometry(g.buffer(10.0)), plot_radius=11.28)
+    assert p.area_m2[0] == pytest.approx(np.pi * 100, rel=0.01)
 
 
 def test_no_stand_below_nothing_and_outside_the_plots_said(recwarn):

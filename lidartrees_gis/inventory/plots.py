@@ -194,6 +194,13 @@ def load_plots(source, crs=None, *, plot_id: str | None = None,
         radius = np.full(n, float(plot_radius))
         geoms = shapely.buffer(shapely.points(x, y), radius, quad_segs=16)
     elif kinds <= {"Polygon", "MultiPolygon"}:
+        if plot_radius is not None:
+            import warnings
+
+            from ..errors import DataWarning
+
+            warnings.warn(DataWarning(f"-plot_radius {plot_radius:g} ignored: PLOTS {name} holds "
+                                      "polygons, whose own areas are the plots'"), stacklevel=2)
         geoms = np.asarray(shapely.make_valid(np.asarray(gdf.geometry.values, dtype=object)))
         x = y = radius = np.full(n, np.nan)
         small = shapely.area(geoms) <= 0
