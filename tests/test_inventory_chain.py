@@ -105,11 +105,13 @@ def test_stand_metrics_and_python_in_memory(data, tmp_path):
 
     x, y, z, _ = _xyz(data(MP))
     boxes = [(684770, 5017780, 684880, 5017900), (684880, 5017780, 684990, 5018000)]
-    gpd.GeoDataFrame({"talhao": ["A", "B"]}, geometry=[shapely.box(*b) for b in boxes],
+    gpd.GeoDataFrame({"talhao": ["A", "B"], "clone": ["I144", "AEC144"]},
+                     geometry=[shapely.box(*b) for b in boxes],
                      crs="EPSG:26917").to_file(tmp_path / "st.gpkg")
     r = lt.metrics(data(MP), stands=tmp_path / "st.gpkg", dtm="none", min_height=2.0)
     s = r["layers"]["stand_metrics"]
     assert list(s["stand_id"]) == ["A", "B"]
+    assert list(s["clone"]) == ["I144", "AEC144"]  # the stands' own fields kept, as volume
     for k, (x0, y0, x1, y1) in enumerate(boxes):
         sel = (x > x0) & (x < x1) & (y > y0) & (y < y1) & (z > 2.0)
         assert s["n"][k] == sel.sum()

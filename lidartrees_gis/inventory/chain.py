@@ -91,7 +91,10 @@ def metrics_run(input, output, *, res=20.0, plots=None, plot_id=None, plot_radiu
         st = load_stands(stands, area.crs, stand_id)
         check_overlap(st, area.extent, area.label())
         zones.append(Zones.of_polygons(st.geoms))
-        names.append(("stand_metrics", "stand_id", st.ids, st.geoms, None))
+        import pandas as pd
+
+        attrs = pd.DataFrame(list(st.attributes)) if st.attributes else None
+        names.append(("stand_metrics", "stand_id", st.ids, st.geoms, attrs))
     r = area_metrics(area, cells_res=None if gpkg else res, zones=zones, options=options,
                      surface=surface, tiling=tiling, progress=SubProgress(prog, 0.0, 0.95))
     options = options or MetricOptions()
