@@ -209,7 +209,7 @@ def test_bad_inputs_one_line_no_output(farm, tmp_path, capsys):
     pl.set_geometry(pl.geometry.translate(10000, 0)).to_file(tmp_path / "far.gpkg")
     a = _args(d, out, "-volume_equation", EQ)
     a[2] = str(tmp_path / "far.gpkg")
-    assert "outside the points" in _bad(capsys, a, tmp_path, out)
+    assert "outside the points, wholly or in part" in _bad(capsys, a, tmp_path, out)
     # plots without a CRS
     pl.set_crs(None, allow_override=True).to_file(tmp_path / "nocrs.shp")
     a[2] = str(tmp_path / "nocrs.shp")

@@ -252,6 +252,6 @@ def check_inside(plots: Plots, extent, label: str) -> None:
 
         names = [plots.ids[i] for i in np.flatnonzero(out)]
         raise InputError(f"PLOTS: {plots.source}: {int(out.sum())} of {len(plots)} plots lie "
-                         f"outside the points of {label} (x {x0:.0f}..{x1:.0f}, y {y0:.0f}.."
+                         f"outside the points, wholly or in part, of {label} (x {x0:.0f}..{x1:.0f}, y {y0:.0f}.."
                          f"{y1:.0f}): {listing(names)}; check the CRS and -plot_radius, or "
                          "drop them")
