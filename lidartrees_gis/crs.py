@@ -216,13 +216,13 @@ LAYER_CRS_FIX = ("give the layer its true CRS (QGIS: Layer Properties > Source >
                  "Coordinate Reference System, then save it; or ogr2ogr -a_srs)")
 
 
-def check_coordinates(crs, bounds, where, *, given: bool = False, fix: str | None = None) -> None:
+def check_coordinates(crs, bounds, where, *, given: bool = False, layer: bool = False) -> None:
     """Refuse coordinates that cannot be in ``crs``: a geographic CRS (degrees) with x beyond
     +-180 or y beyond +-90 (metres labelled e.g. EPSG:4326), or a projected CRS whose points
     all lie within +-180, +-90 and :data:`DEGREE_SPAN`, away from the origin (:data:`LOCAL_ORIGIN`), and, read in it, fall outside its area of use (longitude and
     latitude in degrees labelled e.g. UTM). ``bounds`` (xmin, ymin, xmax, ymax); ``where``
-    names the file; ``given``: the CRS came from -a_srs; ``fix``: what to do instead of the
-    points' -a_srs (a vector layer: give the layer its CRS)."""
+    names the file; ``given``: the CRS came from -a_srs; ``layer``: the bounds are a vector
+    layer's, whose fix is its own CRS (:data:`LAYER_CRS_FIX`), not the points' -a_srs."""
     if crs is None or bounds is None:
         return
     x0, y0, x1, y1 = (float(v) for v in bounds)
@@ -230,7 +230,7 @@ def check_coordinates(crs, bounds, where, *, given: bool = False, fix: str | Non
         return
     label = crs_label(crs)
     source = "-a_srs" if given else "the file"
-    what = "the points" if fix is None else "its features"
+    what, fix = ("its features", LAYER_CRS_FIX) if layer else ("the points", None)
     extent = f"x {x0:,.2f}..{x1:,.2f}, y {y0:,.2f}..{y1:,.2f}"
     if crs.is_geographic:
         if max(abs(x0), abs(x1)) > 180.0 or max(abs(y0), abs(y1)) > 90.0:

@@ -151,7 +151,10 @@ def read_trees(path) -> dict:
                          f"{med * (1 if name == 'DAP' else np.pi):.3g} (a DAP below "
                          f"{DAP_MIN_CM:g} cm): metres? give centimetres (multiply by 100)")
     n = len(df)
-    ht = _numbers(df, cols["ht"], path, "HT") if "ht" in cols else np.full(n, np.nan)
+    if "ht" not in cols:  # the heights of the trees without one come from those measured
+        raise InputError(f"-trees_table: {path}: no HT column (ht, altura, alt, h); columns: "
+                         f"{', '.join(map(str, df.columns))}")
+    ht = _numbers(df, cols["ht"], path, "HT")
     _check_heights(ht, dap, ok, path, cols)
     vol = _numbers(df, cols["volume"], path, "volume") if "volume" in cols else np.full(n, np.nan)
     tree = df[cols["tree"]].astype(str).to_numpy() if "tree" in cols else \
@@ -161,8 +164,7 @@ def read_trees(path) -> dict:
     return {"plot": np.asarray(plot, dtype=object)[keep], "tree": tree[keep], "dap": dap[keep],
             "ht": np.where(ht > 0, ht, np.nan)[keep], "volume": vol[keep],
             "rows_without_dap": int(dead.sum()), "path": str(path),
-            "dap_column": f"{name} column {cols.get('dap', cols.get('cap'))!r}",
-            "ht_column": cols.get("ht"), "columns": [str(c) for c in df.columns]}
+            "dap_column": f"{name} column {cols.get('dap', cols.get('cap'))!r}"}
 
 
 def _check_heights(ht, dap, ok, path, cols) -> None:
@@ -231,10 +233,6 @@ def complete_trees(trees: dict, equation: Equation | None) -> dict:
     dap, ht, vol = t["dap"], t["ht"].copy(), t["volume"].copy()
     missing = ~np.isfinite(ht)
     t["hypsometric"] = None
-    if missing.all() and t.get("columns") is not None and not t.get("ht_column") and \
-            not (np.isfinite(vol).all() and equation is None):
-        raise InputError(f"-trees_table: {t.get('path')}: no HT column (ht, altura, alt, h); "
-                         f"columns: {', '.join(t['columns'])}")
     if missing.any():
         a, b, n, rmse = fit_hypsometric(dap, ht)
         ht[missing] = np.exp(a + b / dap[missing])

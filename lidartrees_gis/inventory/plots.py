@@ -175,9 +175,9 @@ def load_plots(source, crs=None, *, plot_id: str | None = None,
             raise CRSError(f"PLOTS: {name} has no CRS; give the layer its CRS (the points' are "
                            f"{crs.to_string() if hasattr(crs, 'to_string') else crs})")
         if not gdf.crs.equals(crs):
-            from ..crs import LAYER_CRS_FIX, check_coordinates
+            from ..crs import check_coordinates
 
-            check_coordinates(gdf.crs, gdf.total_bounds, f"PLOTS: {name}", fix=LAYER_CRS_FIX)
+            check_coordinates(gdf.crs, gdf.total_bounds, f"PLOTS: {name}", layer=True)
             gdf = gdf.to_crs(crs)
     ids = _ids(gdf, plot_id, name)
     kinds = set(gdf.geom_type)
@@ -252,6 +252,6 @@ def check_inside(plots: Plots, extent, label: str) -> None:
 
         names = [plots.ids[i] for i in np.flatnonzero(out)]
         raise InputError(f"PLOTS: {plots.source}: {int(out.sum())} of {len(plots)} plots lie "
-                         f"outside the points, wholly or in part, of {label} (x {x0:.0f}..{x1:.0f}, y {y0:.0f}.."
-                         f"{y1:.0f}): {listing(names)}; check the CRS and -plot_radius, or "
-                         "drop them")
+                         f"outside the points, wholly or in part, of {label} (x {x0:.0f}.."
+                         f"{x1:.0f}, y {y0:.0f}..{y1:.0f}): {listing(names)}; check the CRS and "
+                         "-plot_radius, or drop them")

@@ -196,9 +196,9 @@ def load_stands(source, crs=None, id_field: str | None = None) -> Stands:
     geoms, keep = _geometries(gdf, name)
     repro = ""
     if crs is not None and gdf.crs is not None and not gdf.crs.equals(crs):
-        from ..crs import LAYER_CRS_FIX, check_coordinates, reprojection
+        from ..crs import check_coordinates, reprojection
 
-        check_coordinates(gdf.crs, gdf.total_bounds, f"-stands: {name}", fix=LAYER_CRS_FIX)
+        check_coordinates(gdf.crs, gdf.total_bounds, f"-stands: {name}", layer=True)
         op = reprojection(gdf.crs, crs)
         geoms = np.asarray([shapely.transform(g, lambda xy: np.column_stack(op(xy[:, 0], xy[:, 1])))
                             if k else g for g, k in zip(geoms, keep)], dtype=object)
