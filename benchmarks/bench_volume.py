@@ -102,7 +102,7 @@ def run_config(name, p, density, draws, resamples):
                                                  select_model, total_interval)
     from lidartrees_gis.inventory.plots import Zones
     from lidartrees_gis.inventory.tiles import area_metrics
-    from lidartrees_gis.inventory.volume import MIN_CELL_COVER, _cells
+    from lidartrees_gis.inventory.volume import stand_cells, unit_metrics
     from lidartrees_gis.io.options import ReadOptions
 
     t0 = time.time()
@@ -124,10 +124,10 @@ def run_config(name, p, density, draws, resamples):
                                                             quad_segs=16)))
                  for z in zones]
         one = TilingOptions(workers=1)  # one core: the machine is shared
-        r = area_metrics(area, cells_res=20.0, zones=zones, tiling=one)
-        spec, grid = r["cells"]
+        _, cell_stand, pieces, _ = stand_cells(area, 20.0, st.geoms)
+        r = area_metrics(area, cells_res=20.0, zones=[*zones, pieces], tiling=one)
         stand_zones = Zones.of_polygons(st.geoms)
-        cm, cell_stand = _cells(spec, grid, stand_zones, r["coverage"] >= MIN_CELL_COVER)
+        _, cm, _ = unit_metrics(r, pieces)
         t_metrics = time.time() - t0
         tr = trees_run(d / "farm.laz", None, stands=d / "stands.gpkg", tiling=one)
         tops = tr["layers"]["tree_tops"]

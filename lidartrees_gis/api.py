@@ -170,10 +170,11 @@ def _inventory_options(min_height, returns, dtm, drop_class, keep_class, a_srs, 
 
 
 def volume(input, plots, output=None, *, stands, trees_table=None, plot_id=None,
-           plot_radius=None, stand_id=None, stand_csv=None, volume_equation=None,
-           approach="aba", res="auto", min_height=2.0, returns="all", dtm="auto",
-           resamples=400, estimator="eblup", drop_class=(7, 18), keep_class=None, a_srs=None,
-           t_srs=None, tile_size=None, workers=None, overwrite=False, progress=None, **read_kw):
+           plot_radius=None, stand_id=None, stand_csv=None, volume_field=None,
+           volume_equation=None, approach="aba", res="auto", min_height=2.0, returns="all",
+           dtm="auto", resamples=400, estimator="eblup", drop_class=(7, 18), keep_class=None,
+           a_srs=None, t_srs=None, tile_size=None, workers=None, overwrite=False, progress=None,
+           **read_kw):
     """Wood volume per stand from points and field plots (``lidartrees volume``;
     docs/VOLUME.md).
 
@@ -183,12 +184,15 @@ def volume(input, plots, output=None, *, stands, trees_table=None, plot_id=None,
         Plot polygons, or plot centres with ``plot_radius``.
     stands : str, Path or GeoDataFrame
         Stand polygons.
-    trees_table : str or Path, optional
+    trees_table : str, Path or pandas.DataFrame, optional
         The plots' measured trees (``parcela;arvore;dap;ht``, pt-BR or English; CSV/TXT or
-        ``.xlsx``).
+        ``.xlsx``, or a DataFrame with those columns).
     stand_csv : str or Path, optional
         Also write the stands' figures as a table (``.csv`` in the locale's dialect, or
         ``.xlsx``); needs ``output``.
+    volume_field : str, optional
+        The plots' field holding their volume (m³/ha) when there is no ``trees_table``
+        (default: the first of volume_m3_ha, vol_ha, vtcc_ha, volume, vol).
     volume_equation : str or (b0, b1, b2), optional
         Schumacher-Hall ``V = b0·DAP^b1·HT^b2``, or ``"ff:F"``: a form factor F
         (``V = F·g·HT``).
@@ -214,7 +218,7 @@ def volume(input, plots, output=None, *, stands, trees_table=None, plot_id=None,
                            tile_size, workers, overwrite, read_kw)
     return volume_run(input, plots, output, stands=stands, trees_table=trees_table,
                       plot_id=plot_id, plot_radius=plot_radius, stand_id=stand_id,
-                      stand_csv=stand_csv,
+                      stand_csv=stand_csv, volume_field=volume_field,
                       options=VolumeOptions(approach=approach, equation=eq, res=res,
                                             resamples=resamples, estimator=estimator),
                       metric=o["metric"], surface=o["surface"], read=o["read"],

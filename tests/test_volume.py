@@ -667,8 +667,9 @@ def test_a_flight_edge_across_stands_and_a_plot(farm, tmp_path, capsys):
     assert edge.sum() == 1 and v[edge].mask.all()
     above = rows > 7952060
     assert (~v[above].mask).all()
-    # the row's cells centred in a stand: 16, one of them on the T1-T2 border (in neither)
-    assert report["metrics"]["cells_left_out"] == 15
+    # the row's cells in the stands (412000-412330): 17, the last one half in, those on the
+    # T1-T2 and T2-T3 borders counted once
+    assert report["metrics"]["cells_left_out"] == 17
     # a plot an edge crosses within the points' extent (a notch of the flight's outline):
     # refused by name with its cover
     x, y = np.asarray(las.x), np.asarray(las.y)
@@ -686,3 +687,60 @@ def test_a_flight_edge_across_stands_and_a_plot(farm, tmp_path, capsys):
     capsys.readouterr()
     line = _bad(capsys, a, tmp_path, out2)
     assert re.search(r"1 plot\(s\) less than 80 % covered by the points: 1 \((4|5)\d %\)", line), line
+
+
+def test_python_takes_the_tree_table_as_a_dataframe(farm):
+    """``lt.volume(trees_table=DataFrame)``: the same figures as from the file, the report
+    naming it, and a bad cell named by its row."""
+    import warnings
+
+    import lidartrees_gis as lt
+    from lidartrees_gis.errors import InputError
+    from lidartrees_gis.io.names import read_text_table
+
+    d, _, _ = farm
+    df = read_text_table(d / "arvores.csv")
+    kw = dict(stands=d / "stands.gpkg", plot_radius=11.28, volume_equation=EQ, resamples=30)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        a = lt.volume(d / "farm.laz", d / "plots.gpkg", trees_table=df, **kw)
+        b = lt.volume(d / "farm.laz", d / "plots.gpkg", trees_table=d / "arvores.csv", **kw)
+    np.testing.assert_array_equal(a["layers"]["stands"]["volume_m3_ha"],
+                                  b["layers"]["stands"]["volume_m3_ha"])
+    assert a["report"]["inputs"]["trees_table"] == f"<DataFrame of {len(df)} rows>"
+    bad = df.astype({"dap": object})
+    bad.loc[3, "dap"] = "18 cm"
+    with pytest.raises(InputError, match=r"-trees_table: <DataFrame of \d+ rows>: row 3: DAP "
+                       "'18 cm' is not a number"):
+        lt.volume(d / "farm.laz", d / "plots.gpkg", trees_table=bad, **kw)
+
+
+def test_volume_field_names_the_plots_own_volume(farm, tmp_path, capsys):
+    """A plots layer with its volume under its own name (efi_plot's ``VOI``): ``-volume_field
+    VOI`` gives the figures of the same volumes read from the table; a name not in the layer,
+    or given with a tree table, is refused in one line."""
+    import geopandas as gpd
+
+    d, _, _ = farm
+    first = tmp_path / "from_table.gpkg"
+    assert main(_args(d, first, "-volume_equation", EQ, "-resamples", "30")) == 0
+    got = gpd.read_file(first, layer="plots")
+    pl = gpd.read_file(d / "plots.gpkg").merge(
+        got[["parcela", "volume_m3_ha"]].rename(columns={"volume_m3_ha": "VOI"}), on="parcela")
+    assert len(pl) == 9
+    pl.to_file(tmp_path / "voi.gpkg")
+    a = ["volume", str(d / "farm.laz"), str(tmp_path / "voi.gpkg"), str(tmp_path / "v.gpkg"),
+         "-stands", str(d / "stands.gpkg"), "-plot_radius", "11.28", "-resamples", "30", "-q"]
+    line = _bad(capsys, a, tmp_path, tmp_path / "v.gpkg")  # VOI is not a name read by itself
+    assert "give one of them, or -volume_field" in line and "VOI" in line, line
+    assert main([*a, "-volume_field", "voi"]) == 0  # as the layer's fields are read: any case
+    s0 = gpd.read_file(first, layer="stands")
+    s1 = gpd.read_file(tmp_path / "v.gpkg", layer="stands")
+    # the same plot volumes (to the table's 4 decimals), the same stands
+    np.testing.assert_allclose(s1["volume_m3_ha"], s0["volume_m3_ha"], rtol=2e-3)
+    b = [*a[:3], str(tmp_path / "w.gpkg"), *a[4:], "-volume_field", "VOL_HA"]
+    line = _bad(capsys, b, tmp_path, tmp_path / "w.gpkg")
+    assert "-volume_field: 'VOL_HA' is not a field of PLOTS" in line and "VOI" in line, line
+    c = [*b[:-1], "VOI", "-trees_table", str(d / "arvores.csv")]
+    line = _bad(capsys, c, tmp_path, tmp_path / "w.gpkg")
+    assert "-volume_field: the plots' volume comes from -trees_table" in line, line

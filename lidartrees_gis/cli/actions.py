@@ -253,6 +253,7 @@ def volume(input, plots, output, **kw):
                    trees_table=kw.get("trees_table") or None, plot_id=kw.get("plot_id"),
                    plot_radius=_number(kw, "plot_radius"), stand_id=kw.get("stand_id"),
                    stand_csv=kw.get("stand_csv") or None,
+                   volume_field=kw.get("volume_field") or None,
                    options=opts, metric=_metric_options(kw), surface=_metric_surface(kw),
                    read=_read(kw), tiling=_tiling(kw), out=_out(kw), progress=kw.get("progress"))
     rep = r["report"]

@@ -473,6 +473,9 @@ COMMANDS = {
                "(parcela), tree (arvore), DAP cm (dap) or CAP cm (cap), HT m (ht, for all or "
                "some trees), volume m³ (optional); .xlsx read too", flag="-trees_table"),
          *(p for p in PLOT_PARAMS if p.name != "plots"),
+         Param("volume_field", "field", "The plots' volume field (m³/ha) when there is no tree "
+               "table (default: the first of volume_m3_ha, vol_ha, vtcc_ha, volume, vol)",
+               flag="-volume_field", advanced=True, parent="plots"),
          Param("stand_id", "field", "The stands' id field (default: stand_id, talhao, ... or "
                "numbered)", flag="-stand_id", advanced=True, parent="stands"),
          Param("volume_equation", "str", "Schumacher-Hall coefficients b0,b1,b2 of V = "

@@ -111,20 +111,37 @@ def _numbers(df, col, path, what):
     bad = v.isna() & df[col].notna() & (df[col].astype(str).str.strip() != "")
     if bad.any():
         i = int(np.flatnonzero(bad.to_numpy())[0])
-        raise InputError(f"-trees_table: {path}: line {i + 2}: {what} {df[col].iloc[i]!r} is not "
+        where = f"row {i}" if str(path).startswith("<DataFrame") else f"line {i + 2}"
+        raise InputError(f"-trees_table: {path}: {where}: {what} {df[col].iloc[i]!r} is not "
                          "a number")
     return v.to_numpy(dtype=float)
 
 
+def table_label(table) -> str:
+    """How a tree table is named in messages and reports: its path, or a DataFrame's rows."""
+    import pandas as pd
+
+    if isinstance(table, pd.DataFrame):
+        return f"<DataFrame of {len(table)} rows>"
+    return str(table)
+
+
 def read_trees(path) -> dict:
     """The tree table as arrays: ``plot`` (str), ``tree``, ``dap`` (cm), ``ht`` (m, NaN where
-    not measured), ``volume`` (m³, NaN where not given). Refuses a DAP in millimetres."""
+    not measured), ``volume`` (m³, NaN where not given). Refuses a DAP in millimetres.
+    ``path``: a CSV, text or ``.xlsx`` table (:func:`~..io.names.read_text_table`), or a
+    pandas DataFrame with the same columns."""
+    import pandas as pd
+
     from ..io.names import read_text_table
 
-    try:
-        df = read_text_table(path)
-    except (ValueError, OSError) as exc:
-        raise InputError(f"-trees_table: {path}: cannot read the table ({exc})") from None
+    if isinstance(path, pd.DataFrame):
+        df, path = path.reset_index(drop=True), table_label(path)
+    else:
+        try:
+            df = read_text_table(path)
+        except (ValueError, OSError) as exc:
+            raise InputError(f"-trees_table: {path}: cannot read the table ({exc})") from None
     if len(df) == 0:
         raise InputError(f"-trees_table: {path}: no trees")
     cols = _columns(df, path)

@@ -14,7 +14,7 @@ metrics for ``n`` plots (3 plots per coefficient beyond the intercept and 2 more
 needs at least :data:`MIN_PLOTS` plots.
 
 Stand estimates: the mean of the model's cell predictions in the stand (cells of the plots'
-size). Their 95 % interval ``estimate ± t(0.975, n - p - 1) · sqrt(V_boot + σ²_stand)``:
+size), each cell weighted by its share of area inside the stand (:class:`CellShares`). Their 95 % interval ``estimate ± t(0.975, n - p - 1) · sqrt(V_boot + σ²_stand)``:
 ``V_boot`` the variance of the stand's estimate over bootstrap resamples of the plots (the model
 chosen again on each resample's distinct plots and refitted on the resample, :data:`BOOTSTRAP`
 resamples; the variance of a normal with their central 95 %
@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
+from .cells import CellShares
 
 #: the metrics a model may take: one of the heights, then one of the canopy densities, then
 #: one of the height spreads (a model of k metrics takes the first k groups)
@@ -303,11 +304,7 @@ def boot_variance(reps, n: int) -> np.ndarray:
 
 
 def _stand_means(pred, cell_stand, n_stands):
-    ok = np.isfinite(pred) & (cell_stand >= 0)
-    s = np.bincount(cell_stand[ok], weights=pred[ok], minlength=n_stands)
-    c = np.bincount(cell_stand[ok], minlength=n_stands)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return s / c, c
+    return CellShares.of(cell_stand).means(pred, n_stands)
 
 
 def t975(dof: int) -> float:
@@ -415,6 +412,7 @@ def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_
     stand takes the wider of the two variances)."""
     y = np.asarray(y, float)
     n, p = y.size, len(model.predictors)
+    cell_stand = CellShares.of(cell_stand)
     Xc = model.design(cell_metrics)
     valid = np.isfinite(Xc).all(axis=1)
     # no cell holds less than nothing: a linear model below its plots' heights (a young stand

@@ -118,7 +118,7 @@ def build(area, plots, stands, meas, pm, plot_stand, res_aba, res_trees, spec, c
         pdf["loo_predicted_m3_ha"] = np.round(model.stats["loo"], 3)
         for k, v in _stand_fields("volume", est, stands.area_ha).items():
             sdf[k] = v
-        sdf["cells"] = est["cells"]
+        sdf["cells"] = np.round(est["cells"], 2)  # area in cells (pieces by area)
         vol_grid = np.maximum(model.predict(cm), 0.0).reshape(spec.shape)
         report["volume_model"] = _model_report(model, table, est)
     if "basal_area" in res_aba:

@@ -91,9 +91,20 @@ class Zones:
         x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
         b = shapely.bounds(self.geoms)
         pi, zi = [], []
+        # many zones (the pieces of cells stand borders cut): each looks only at the returns
+        # of its own strip of x
+        order = np.argsort(x, kind="stable") if len(self.geoms) > 16 else None
+        if order is not None:
+            xs = x[order]
+            lo = np.searchsorted(xs, b[:, 0] - 1e-6, "left")
+            hi = np.searchsorted(xs, b[:, 2] + 1e-6, "right")
         for k in range(len(self.geoms)):
-            near = np.flatnonzero((x >= b[k, 0] - 1e-6) & (x <= b[k, 2] + 1e-6)
-                                  & (y >= b[k, 1] - 1e-6) & (y <= b[k, 3] + 1e-6))
+            if order is None:
+                near = np.flatnonzero((x >= b[k, 0] - 1e-6) & (x <= b[k, 2] + 1e-6)
+                                      & (y >= b[k, 1] - 1e-6) & (y <= b[k, 3] + 1e-6))
+            else:
+                near = np.sort(order[lo[k]:hi[k]])
+                near = near[(y[near] >= b[k, 1] - 1e-6) & (y[near] <= b[k, 3] + 1e-6)]
             if near.size == 0:
                 continue
             if np.isfinite(self.radius[k]):

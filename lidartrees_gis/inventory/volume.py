@@ -28,7 +28,8 @@ from ..io.options import ReadOptions
 from ..io.output import OutputOptions, check_outputs, claim_outputs
 from ..progress import SubProgress, as_progress
 from .chain import open_points
-from .field import Equation, complete_trees, plot_figures, read_trees
+from .field import Equation, complete_trees, plot_figures, read_trees, table_label
+from .cells import CellShares, cell_shares
 from .models import BOOTSTRAP, aba_stands, check_plots, fit_dap_height, ratio_stands, \
     select_model
 from .plots import Zones, check_inside, load_plots, warn_overlaps
@@ -99,16 +100,26 @@ def side_outputs(output) -> dict:
             "png": Path(f"{stem}_report.png")}
 
 
-def _plot_measurements(plots, trees_table, equation) -> dict:
+def _plot_measurements(plots, trees_table, equation, volume_field=None) -> dict:
     """Each plot's measured figures and the completed tree table (None without one)."""
+    if volume_field is not None and trees_table is not None:
+        raise InputError("-volume_field: the plots' volume comes from -trees_table; give one "
+                         "of the two")
     if trees_table is None:
         cols = {normalise(c): c for c in plots.attrs.columns}
-        col = next((cols[f] for f in PLOT_VOLUME_FIELDS if f in cols), None)
+        if volume_field is not None:
+            col = cols.get(normalise(volume_field))
+            if col is None:
+                fields = ", ".join(map(str, plots.attrs.columns)) or "none"
+                raise InputError(f"-volume_field: {volume_field!r} is not a field of PLOTS "
+                                 f"{plots.source} (its fields: {fields})")
+        else:
+            col = next((cols[f] for f in PLOT_VOLUME_FIELDS if f in cols), None)
         if col is None:
             fields = ", ".join(map(str, plots.attrs.columns)) or "none"
             raise InputError(f"PLOTS: {plots.source}: no tree table (-trees_table) and no plot "
                              "volume field (volume_m3_ha, vol_ha, vtcc_ha, volume or vol; its "
-                             f"fields: {fields}); give one of them")
+                             f"fields: {fields}); give one of them, or -volume_field")
         import pandas as pd
 
         v = pd.to_numeric(plots.attrs[col].astype(str).str.replace(",", "."), errors="coerce")
@@ -128,18 +139,46 @@ def _cell_res(options: VolumeOptions, plots) -> float:
     return float(options.res)
 
 
-def _cells(grid_spec, grid, stand_zones, covered):
-    """The cells' metrics as flat arrays (NaN where not ``covered``: not predicted) and each
-    cell's stand (by its centre)."""
+def _cells(grid, covered, pieces_metrics=None, pieces_covered=None) -> tuple:
+    """``(cells, units)``: the cells' metrics as flat arrays (NaN where not ``covered``: not
+    predicted), and the same followed by the pieces' (:func:`~.cells.cell_shares`), the
+    units a stand's figure is the mean of."""
     from .metrics import METRICS
 
-    rows, cols = np.indices(grid_spec.shape)
-    cx, cy = grid_spec.xy(rows.ravel(), cols.ravel())
-    stand = stand_zones.members(cx, cy)
     keep = np.asarray(covered, bool).ravel()
-    metrics = {k: np.where(keep, grid[i].ravel().astype(np.float64), np.nan)
-               for i, k in enumerate(METRICS)}
-    return metrics, stand
+    cells = {k: np.where(keep, grid[i].ravel().astype(np.float64), np.nan)
+             for i, k in enumerate(METRICS)}
+    if pieces_metrics is None:
+        return cells, cells
+    on = np.asarray(pieces_covered, bool)
+    units = {k: np.concatenate([cells[k], np.where(on, np.asarray(pieces_metrics[k], float),
+                                                   np.nan)]) for k in METRICS}
+    return cells, units
+
+
+def stand_cells(area, res: float, stand_geoms) -> tuple:
+    """``(grid, CellShares, pieces as Zones, unit_cell)``: the metric cells
+    :func:`~.tiles.area_metrics` makes over ``area`` at ``res``, how they and the pieces the
+    stands' borders cut lie in the stands, and each unit's cell (cells, then pieces)."""
+    from ..grid import GridSpec
+
+    spec = GridSpec.from_bounds(*area.extent, res, crs=area.crs, closed_top=True)
+    shares, pieces, piece_cell = cell_shares(spec, stand_geoms)
+    return (spec, shares, Zones.of_polygons(pieces),
+            np.r_[np.arange(spec.width * spec.height), piece_cell])
+
+
+def unit_metrics(r, pieces) -> tuple:
+    """``(cells, units, cells left out)`` from an :func:`~.tiles.area_metrics` result whose
+    last zone set is ``pieces`` (:func:`stand_cells`): cells and pieces less than
+    :data:`MIN_CELL_COVER` covered by the returns are not predicted."""
+    spec, grid = r["cells"]
+    covered = r["coverage"] >= MIN_CELL_COVER
+    pc = cover_shares(*r["occupied"], pieces.geoms) >= MIN_CELL_COVER if len(pieces) else \
+        np.zeros(0, bool)
+    cells, units = _cells(grid, covered, r["zones"][-1], pc)
+    has = np.isfinite(np.r_[grid[0].ravel(), r["zones"][-1]["n"]])
+    return cells, units, ~np.r_[covered.ravel(), pc] & has
 
 
 def cover_shares(sub, occupied, geoms) -> np.ndarray:
@@ -295,11 +334,7 @@ def _warn_stands(st, share, cm, cell_stand, pm, res_aba) -> None:
         v = np.asarray(pm[p], float)
         lo, hi = float(np.nanmin(v)), float(np.nanmax(v))
         pad = 0.1 * (hi - lo)
-        c = np.asarray(cm[p], float)
-        ok = (cell_stand >= 0) & np.isfinite(c)
-        n = np.bincount(cell_stand[ok], minlength=len(st.ids))
-        with np.errstate(invalid="ignore", divide="ignore"):
-            mean = np.bincount(cell_stand[ok], weights=c[ok], minlength=len(st.ids)) / n
+        mean, n = CellShares.of(cell_stand).means(cm[p], len(st.ids))
         for k in np.flatnonzero((n > 0) & ((mean < lo - pad) | (mean > hi + pad))):
             out.append(f"{st.ids[k]} ({p} {mean[k]:.3g}; plots {lo:.3g}-{hi:.3g})")
     if out:
@@ -310,7 +345,7 @@ def _warn_stands(st, share, cm, cell_stand, pm, res_aba) -> None:
 
 
 def volume_run(input, plots, output, *, stands, trees_table=None, plot_id=None,
-               plot_radius=None, stand_id=None, stand_csv=None,
+               plot_radius=None, stand_id=None, stand_csv=None, volume_field=None,
                options: VolumeOptions | None = None,
                metric: MetricOptions | None = None, surface=None,
                read: ReadOptions | None = None, tiling: TilingOptions | None = None,
@@ -338,7 +373,8 @@ def volume_run(input, plots, output, *, stands, trees_table=None, plot_id=None,
             raise InputError(f"OUTPUT: {output}: expected a .gpkg file name")
         check_outputs([(output, "OUTPUT"), *((p, k) for k, p in side.items()),
                        (stand_csv, "-stand_csv")],
-                      (input, plots, stands, trees_table), out.overwrite)
+                      (input, plots, stands, None if trees_table is None
+                       else table_label(trees_table)), out.overwrite)
     elif stand_csv is not None:
         raise InputError("-stand_csv: needs the output GeoPackage")
     claims = [(output, "OUTPUT"), *((p, k) for k, p in side.items()),
@@ -348,11 +384,12 @@ def volume_run(input, plots, output, *, stands, trees_table=None, plot_id=None,
     with claim_outputs(claims, out.overwrite):
         return _estimate(input, plots, output, stands, trees_table, plot_id, plot_radius,
                          stand_id, stand_csv, options, metric, surface, read, tiling, out, prog,
-                         side)
+                         side, volume_field)
 
 
 def _estimate(input, plots, output, stands, trees_table, plot_id, plot_radius, stand_id,
-              stand_csv, options, metric, surface, read, tiling, out, prog, side) -> dict:
+              stand_csv, options, metric, surface, read, tiling, out, prog, side,
+              volume_field=None) -> dict:
     """:func:`volume_run` once its outputs are checked and claimed."""
     from ..plantation.stands import check_overlap, load_stands
     from . import outputs as outs
@@ -363,24 +400,26 @@ def _estimate(input, plots, output, stands, trees_table, plot_id, plot_radius, s
     warn_overlaps(pl)
     st = load_stands(stands, area.crs, stand_id)
     check_overlap(st, area.extent, area.label())
-    meas = _plot_measurements(pl, trees_table, options.equation)
+    meas = _plot_measurements(pl, trees_table, options.equation, volume_field)
     y = meas["figures"]["volume_m3_ha"]
     check_plots(len(pl), "a volume model" if options.approach != "trees" else
                 "the tree approach")
     extra = meas["figures"].get("unmatched_plots")
+    label = None if trees_table is None else table_label(trees_table)
     if extra:
         warnings.warn(DataWarning(
-            f"-trees_table: {trees_table}: the trees of {len(extra)} plot(s) not in PLOTS "
+            f"-trees_table: {label}: the trees of {len(extra)} plot(s) not in PLOTS "
             f"({listing(extra, 8)}) enter the height, DAP and volume relations only, no "
             "plot's figures"), stacklevel=2)
     if meas["trees"] is not None and meas["trees"].get("rows_without_dap"):
         warnings.warn(DataWarning(
-            f"-trees_table: {trees_table}: {meas['trees']['rows_without_dap']} rows without a "
+            f"-trees_table: {label}: {meas['trees']['rows_without_dap']} rows without a "
             "DAP (dead or missing trees) left out of the plots' figures"), stacklevel=2)
     res = _cell_res(options, pl)
+    spec0, cell_stand, pieces, unit_cell = stand_cells(area, res, st.geoms)
     prog.update(0.02, "metrics")
-    r = area_metrics(area, cells_res=res, zones=[pl.zones], options=metric, surface=surface,
-                     tiling=tiling, progress=SubProgress(prog, 0.02, 0.5))
+    r = area_metrics(area, cells_res=res, zones=[pl.zones, pieces], options=metric,
+                     surface=surface, tiling=tiling, progress=SubProgress(prog, 0.02, 0.5))
     pm = r["zones"][0]
     empty = [pl.ids[i] for i in np.flatnonzero(pm["n"] == 0)]
     if empty:
@@ -388,20 +427,21 @@ def _estimate(input, plots, output, stands, trees_table, plot_id, plot_radius, s
                          f"{listing(empty, 8)}; outside the flight, or in a clearing?")
     _check_plot_cover(pl, r["occupied"])
     spec, grid = r["cells"]
+    assert spec == spec0, (spec, spec0)
     stand_zones = Zones.of_polygons(st.geoms)
-    covered = r["coverage"] >= MIN_CELL_COVER
-    cm, cell_stand = _cells(spec, grid, stand_zones, covered)
+    cm, um, left_out = unit_metrics(r, pieces)
     flown = cover_shares(*r["occupied"], st.geoms)
+    # the cells in a stand (or cut by its border) with returns but not predicted
+    out_units = cell_stand.cell[left_out[cell_stand.cell]]
     r = {**r, "stand_cover": flown,
-         "cells_left_out": int(((cell_stand >= 0) & np.isfinite(grid[0].ravel())
-                                & ~covered.ravel()).sum())}
+         "cells_left_out": int(np.unique(unit_cell[out_units]).size)}
     cx = np.array([g.representative_point().x for g in pl.geoms])
     cy = np.array([g.representative_point().y for g in pl.geoms])
     plot_stand = stand_zones.members(cx, cy)
     res_aba = {}
     if options.approach in ("aba", "both"):
         prog.update(0.55, "area-based model")
-        res_aba = _aba(pm, meas["figures"], cm, cell_stand, len(st), plot_stand, options)
+        res_aba = _aba(pm, meas["figures"], um, cell_stand, len(st), plot_stand, options)
     res_trees = None
     if options.approach in ("trees", "both"):
         prog.update(0.6, "trees")
@@ -414,7 +454,7 @@ def _estimate(input, plots, output, stands, trees_table, plot_id, plot_radius, s
                                            resamples=options.resamples, seed=options.seed,
                                            stand_effect=options.estimator == "eblup")
         _warn_density(meas["figures"].get("trees_ha"), res_trees["detected_trees_ha"], pl)
-    _warn_stands(st, flown, cm, cell_stand, pm, res_aba)
+    _warn_stands(st, flown, um, cell_stand, pm, res_aba)
     prog.update(0.92, "writing")
     layers, report, vol_grid = outs.build(area, pl, st, meas, pm, plot_stand, res_aba, res_trees,
                                           spec, cm, options, metric, r)
@@ -424,7 +464,7 @@ def _estimate(input, plots, output, stands, trees_table, plot_id, plot_radius, s
 
     # what a technical report cites: the files, the tool and when
     report["inputs"] = {"points": str(input), "plots": pl.source, "stands": st.source,
-                        "trees_table": None if trees_table is None else str(trees_table),
+                        "trees_table": None if trees_table is None else table_label(trees_table),
                         "estimator": options.estimator}
     report["tool"] = f"lidartrees_gis {__version__}"
     report["created"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
