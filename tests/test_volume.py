@@ -744,3 +744,23 @@ def test_volume_field_names_the_plots_own_volume(farm, tmp_path, capsys):
     c = [*b[:-1], "VOI", "-trees_table", str(d / "arvores.csv")]
     line = _bad(capsys, c, tmp_path, tmp_path / "w.gpkg")
     assert "-volume_field: the plots' volume comes from -trees_table" in line, line
+
+
+def test_plots_given_a_quarter_of_their_area_are_said_with_the_area_based_approach(
+        farm, tmp_path, capsys):
+    """400 m² plots entered with the 100 m² radius (5.64 m): four times the trees per ha of
+    any planting design; the area-based run (no detected trees to compare with) says so."""
+    d, _, _ = farm
+    a = _args(d, tmp_path / "v.gpkg", "-volume_equation", EQ, "-resamples", "30")
+    a[a.index("-plot_radius") + 1] = "5.64"
+    a.remove("-q")
+    capsys.readouterr()
+    assert main(a) == 0
+    said = [ln for ln in capsys.readouterr().err.splitlines() if "planting design" in ln]
+    assert len(said) == 1 and "of 100 m²" in said[0] and "-plot_radius" in said[0], said
+    tree_ha = float(said[0].split("make ")[1].split(" trees/ha")[0])
+    assert 5000 < tree_ha < 8000  # the farm's 3 x 2 m (1667 trees/ha) times four
+    b = _args(d, tmp_path / "w.gpkg", "-volume_equation", EQ, "-resamples", "30")
+    b.remove("-q")
+    assert main(b) == 0
+    assert "planting design" not in capsys.readouterr().err

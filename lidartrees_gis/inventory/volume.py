@@ -312,6 +312,25 @@ def _warn_density(table_ha, detected_ha, plots) -> None:
             "m² a plot): check -plot_radius or the plots' polygons"), stacklevel=3)
 
 
+#: trees per ha above which plots are too small for what they hold: 1.8 times the densest
+#: common planting design (3 x 1.5 m, 2222 trees/ha; ../shared/docs/PLANTATIONS.md)
+MAX_TREES_HA = 4000.0
+
+
+def _warn_crowded(table_ha, plots) -> None:
+    """Warn when the plots' trees per ha by the table (median) exceed :data:`MAX_TREES_HA`:
+    the plots' area is smaller than their trees' (the 100 m² radius, 5.64 m, given for
+    400 m² plots makes every figure four times too large); the area-based approach alone has
+    no detected trees to compare them with (:func:`_warn_density`)."""
+    t = np.asarray(table_ha if table_ha is not None else [], float)
+    t = t[np.isfinite(t) & (t > 0)]
+    if t.size >= 3 and float(np.median(t)) > MAX_TREES_HA:
+        warnings.warn(DataWarning(
+            f"PLOTS: the plots' trees make {float(np.median(t)):.0f} trees/ha (median of "
+            f"{t.size} plots of {np.mean(plots.area_m2):.0f} m²), more than any planting "
+            "design holds: check -plot_radius or the plots' polygons"), stacklevel=3)
+
+
 def _warn_stands(st, share, cm, cell_stand, pm, res_aba) -> None:
     """Warn (the run goes on) of stands the points do not cover (``share``, from
     :func:`cover_shares`: their m³/ha is their flown part's) and of stands whose metrics lie
@@ -415,6 +434,8 @@ def _estimate(input, plots, output, stands, trees_table, plot_id, plot_radius, s
         warnings.warn(DataWarning(
             f"-trees_table: {label}: {meas['trees']['rows_without_dap']} rows without a "
             "DAP (dead or missing trees) left out of the plots' figures"), stacklevel=2)
+    if options.approach == "aba":  # the tree approach compares them with the trees it finds
+        _warn_crowded(meas["figures"].get("trees_ha"), pl)
     res = _cell_res(options, pl)
     spec0, cell_stand, pieces, unit_cell = stand_cells(area, res, st.geoms)
     prog.update(0.02, "metrics")
