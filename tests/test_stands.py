@@ -420,3 +420,43 @@ def test_a_young_stand_beside_an_old_one_keeps_its_trees(tmp_path):
     cols = ["trees", "planting_positions", "missing_trees", "uncertain_positions",
             "suppressed_trees", "stocking_pct", "stocking_pct_low", "stocking_pct_high"]
     pd.testing.assert_frame_equal(st[cols], tiled[cols])
+
+
+def test_a_spacing_the_stands_were_not_planted_on_is_said(two_stands, capsys):
+    """Both stands are planted 3 x 2 m: ``-spacing 3x3`` names each with the lattice its tops
+    lie on (its trees and stocking would be read on the wrong one, exit 0); ``-spacing 3x2``
+    says nothing."""
+    d = two_stands["dir"]
+    base = ["trees", str(two_stands["las"]), str(d / "s.gpkg"), "-stands",
+            str(two_stands["stands"]), "-overwrite"]
+    capsys.readouterr()
+    assert main([*base, "-spacing", "3x3"]) == 0
+    said = [ln for ln in capsys.readouterr().err.splitlines() if "another lattice" in ln]
+    assert len(said) == 1, said
+    assert "-spacing 3x3:" in said[0] and "-spacing auto" in said[0]
+    for k in ("T-01", "T-02"):
+        assert f"stand {k}'s on 3.00 x 2.00 m" in said[0], said
+    assert main([*base, "-spacing", "3x2"]) == 0
+    assert "another lattice" not in capsys.readouterr().err
+
+
+def test_plantation_mode_on_a_canopy_height_model_is_refused(two_stands, tmp_path, capsys):
+    """A CHM holds no returns at the empty positions (every one would be uncertain, the
+    stocking far below the truth): -spacing refused in one line, nothing written; with
+    -stands alone the stands get the defaults' trees and a warning says so."""
+    import geopandas as gpd
+
+    chm = tmp_path / "chm.tif"
+    _run(["chm", str(two_stands["las"]), str(chm)])
+    out = tmp_path / "t.gpkg"
+    capsys.readouterr()
+    assert main(["trees", str(chm), str(out), "-stands", str(two_stands["stands"]),
+                 "-spacing", "auto"]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "-spacing: " in err[0] and "canopy height model" in err[0] and \
+        "give the point files" in err[0], err
+    assert not out.exists()
+    assert main(["trees", str(chm), str(out), "-stands", str(two_stands["stands"])]) == 0
+    err = capsys.readouterr().err
+    assert "-stands: " in err and "without their planting lattice or stocking" in err
+    assert len(gpd.read_file(out, layer="stands")) == 2

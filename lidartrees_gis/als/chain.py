@@ -24,7 +24,7 @@ from ..catalog.raster import RasterArea, is_raster
 from ..catalog.checkpoint import Checkpoint, run_fingerprint
 from ..catalog.runner import FailedTiles, TileRunner, default_workers, tile_name
 from ..crs import crs_label
-from ..errors import InputError
+from ..errors import InputError, listing
 from ..grid import GridSpec
 from ..io.options import ReadOptions, filter_report
 from ..io.output import OutputOptions, atomic_output, check_outputs, claim_outputs
@@ -247,6 +247,8 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
     prog = as_progress(progress)
     area = open_area(input, read)
     check_outputs(outputs, area.files, out.overwrite)
+    if not isinstance(area, Catalog):
+        check_chm_plantation(p, stands, area.label())
     if stands is not None:
         from ..plantation.stands import check_overlap, load_stands
 
@@ -288,9 +290,11 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
                                                        0.7), first), 0.7
             args = (area, p, plan, surface, bool(chm_out or png), stands, grids)
             n = len(plan.tiles)
+            other = {}  # the stands on another lattice than an explicit -spacing
             for done, r in enumerate(run_tiles(runner, tile_trees, plan, args, ready,
                                                SubProgress(prog, start, 0.95)), 1):
                 summary.add(r)
+                other.update(r.get("lattice_other") or {})
                 if tally is not None:
                     tally.add(r)
                 # the last wave of tiles is written as it comes, while the other workers finish
@@ -301,6 +305,7 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
                 if sinks.get("chm") is not None:
                     sinks["chm"].write(r["chm"], r["chm_left"], r["chm_top"])
             check_points(area, summary, read)
+            warn_other_lattices(other, p.spacing, stands)
             smooth = auto_smoothing(plan.crown_scale, plan.res)[0] if p.smooth == "auto" else p.smooth
             row = summary.row(p, plan, smooth)
             if stands is None:
@@ -328,6 +333,19 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
     if stands is not None:
         res.update(_stands_result(stands, srows, tally, stand_csv))
     return check_failed(runner, res)
+
+
+def check_chm_plantation(p: TreeParams, stands, label: str) -> None:
+    """Plantation mode reads each empty planting position's returns (a missing tree, or a
+    neighbour's crown over it): refused on a CHM, which holds none (every empty position
+    would be uncertain and the stocking far below the truth); with stands and no spacing,
+    the stands get the defaults' trees, and a warning says so."""
+    if p.spacing is not None:
+        raise InputError(f"-spacing: {label} is a canopy height model: plantation mode reads "
+                         "the returns at each empty planting position; give the point files")
+    if stands is not None:
+        _warn(f"-stands: {label} is a canopy height model: the stands get the defaults' "
+              "trees, without their planting lattice or stocking (which the point files give)")
 
 
 def stands_plantation(p: TreeParams, area) -> TreeParams:
@@ -421,6 +439,21 @@ def _area_grids(runner, area, p: TreeParams, plan: AreaPlan, surface, stands, pr
     # where each stand's row and plant numbers start: made once here, for every tile
     zones = [-1] + ([] if stands is None else list(range(len(stands))))
     return add_anchors(grids, number_regions(stands, area.extent), plan.res, zones)
+
+
+def warn_other_lattices(other: dict, spacing, stands) -> None:
+    """A :class:`DataWarning` naming the stands (or the area, without stands: key ``"all"``)
+    whose tops lie on another planting lattice than the ``-spacing`` given (``other``: the
+    tiles' ``lattice_other``, :func:`~lidartrees_gis.plantation.positions.fit_stand_grids`):
+    a farm of 3 x 2 and 3 x 3 m stands run with one spacing has the other stands' trees and
+    stocking read on a lattice they were not planted on."""
+    if not other or not isinstance(spacing, tuple):
+        return
+    names = [("the area's" if k == "all" or stands is None else f"stand {stands.ids[k]}'s")
+             + f" on {v}" for k, v in sorted(other.items(), key=lambda kv: str(kv[0]))]
+    _warn(f"-spacing {spacing[0]:g}x{spacing[1]:g}: the tops lie on another lattice: "
+          f"{listing(names, 6)}; their trees and stocking are read on a lattice they were not "
+          "planted on: -spacing auto finds each stand's own")
 
 
 def _stands_result(stands, rows, tally, stand_csv) -> dict:

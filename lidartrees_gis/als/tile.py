@@ -333,6 +333,10 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
     out["lattice_why"] = {} if st is None else {
         k[1]: v for k, v in (st.get("grids") or {}).items()
         if isinstance(k, tuple) and k[0] == "why"}
+    # an explicit spacing's stands whose tops lie on another lattice
+    out["lattice_other"] = {} if st is None else {
+        k[1]: v for k, v in (st.get("grids") or {}).items()
+        if isinstance(k, tuple) and k[0] == "other"}
     if under is not None:  # no crown of their own: a NULL crown polygon
         out = {c: np.r_[out[c], under[c]] for c in TREE_FIELDS} | {
             k: v for k, v in out.items() if k not in TREE_FIELDS}

@@ -139,6 +139,8 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
                 if why:
                     out[("why", k)] = why
 
+    if not auto and todo:
+        _other_lattices(out, todo, [tops_of(k) for k in todo], spacing, cell, scan, fits)
     refused = set()
     if auto:  # a stand whose tops leave its lattice's rows in a part of it has none
         from .blocks import OFF_ROWS_MAX, off_rows_share
@@ -174,6 +176,32 @@ def fit_stand_grids(top_x, top_y, top_zone, spacing, grid: PlantingGrid | None =
         if out[k] is not None:
             out[("span", k)] = row_spans(out[k], *tops_of(k))
     return out
+
+
+#: a lattice found under a stand's tops is another design than an explicit spacing when
+#: either of its spacings differs from the given one by more than this share
+OTHER_SPACING = 0.1
+
+
+def _other_lattices(out: dict, keys, tops, spacing, cell, scan, fits) -> None:
+    """With an explicit ``spacing``: ``out[("other", key)]`` for each stand (or ``"all"``)
+    whose tops, looked at as ``spacing="auto"`` looks, lie on another lattice (a farm of 3 x 2
+    and 3 x 3 m stands given one spacing)."""
+    from .stocking import PLANTING_MIN_TREES
+
+    pick = [i for i, (x, _) in enumerate(tops) if np.asarray(x).size >= PLANTING_MIN_TREES]
+    if not pick:
+        return
+    jobs = [tops[i] for i in pick]
+    found = fits(jobs, "auto", cell, scan) if fits is not None else \
+        [fit_lattice(t, "auto", cell, scan) for t in jobs]
+    for i, g in zip(pick, found):
+        if g is None or isinstance(g, tuple):
+            continue
+        if abs(g.row_spacing / spacing[0] - 1) > OTHER_SPACING or \
+                abs(g.tree_spacing / spacing[1] - 1) > OTHER_SPACING:
+            out[("other", keys[i])] = (f"{g.row_spacing:.2f} x {g.tree_spacing:.2f} m (rows at "
+                                       f"{g.azimuth % 180:.0f}°)")
 
 
 def fit_lattice(tops, spacing, cell: float = 0.0, scan=None):
