@@ -200,6 +200,23 @@ def missing_crs_hint(x=None, y=None) -> str:
     return "give the delivery's CRS with -a_srs (an EPSG code, WKT or 'SAD69 23K')"
 
 
+def utm_hint(crs, x, y) -> str:
+    """The projected CRS to suggest for points at ``(x, y)`` in ``crs``: the UTM zone they lie
+    in, on SIRGAS 2000 where Brazil's zones are (17S-25S: EPSG:31977-31985), else WGS 84."""
+    try:
+        lon, lat = pyproj.Transformer.from_crs(crs, "EPSG:4326", always_xy=True).transform(
+            float(x), float(y))
+    except Exception:  # noqa: BLE001 - no suggestion then
+        return "a projected CRS in metres (the UTM zone of the points)"
+    if not (np.isfinite(lon) and np.isfinite(lat)):
+        return "a projected CRS in metres (the UTM zone of the points)"
+    zone = int(np.clip(np.floor((lon + 180.0) / 6.0) + 1, 1, 60))
+    if lat < 0 and 17 <= zone <= 25:
+        return f"EPSG:{31960 + zone} (SIRGAS 2000 / UTM {zone}S, where the points are)"
+    code = (32700 if lat < 0 else 32600) + zone
+    return f"EPSG:{code} (WGS 84 / UTM {zone}{'S' if lat < 0 else 'N'}, where the points are)"
+
+
 #: how far (degrees) the points may lie outside a projected CRS's area of use before their
 #: coordinates are taken for degrees mislabelled
 AREA_OF_USE_MARGIN = 1.0

@@ -1,3 +1,4 @@
+import numpy as np
 import pyproj
 import pytest
 
@@ -37,3 +38,25 @@ def test_sad69_to_sirgas_matches_pyproj_and_reports_operation():
         assert "1 m" in rep
     else:
         assert "5 m" in rep and "br_ibge_SAD69_003.tif" in rep
+
+
+def test_a_geographic_t_srs_is_refused_with_the_points_utm_zone(tmp_path, capsys):
+    """-t_srs EPSG:4674 (degrees): the grids need metres; the error names -t_srs (not the
+    points) and suggests the zone the points lie in (23S here, not another)."""
+    from lidartrees_gis.cli import main
+    from lidartrees_gis.crs import utm_hint
+    from lidartrees_gis.io.lasout import write_points
+
+    x = np.array([412000.0, 412050.0, 412100.0])
+    y = np.array([7456000.0, 7456050.0, 7456100.0])
+    write_points(tmp_path / "p.laz", x, y, np.array([800.0, 801.0, 802.0]),
+                 crs=pyproj.CRS.from_epsg(31983))
+    capsys.readouterr()
+    assert main(["chm", str(tmp_path / "p.laz"), str(tmp_path / "c.tif"), "-t_srs",
+                 "EPSG:4674"]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "-t_srs EPSG:4674: " in err[0] and "geographic" in err[0], err
+    assert "-t_srs EPSG:31983 (SIRGAS 2000 / UTM 23S" in err[0], err
+    assert not (tmp_path / "c.tif").exists()
+    # north of the equator and outside Brazil's zones: WGS 84's
+    assert utm_hint(pyproj.CRS.from_epsg(4326), 9.2, 45.5).startswith("EPSG:32632 ")

@@ -460,3 +460,25 @@ def test_plantation_mode_on_a_canopy_height_model_is_refused(two_stands, tmp_pat
     err = capsys.readouterr().err
     assert "-stands: " in err and "without their planting lattice or stocking" in err
     assert len(gpd.read_file(out, layer="stands")) == 2
+
+
+def test_stands_off_the_points_with_most_trees_outside_them_hint_at_the_crs(two_stands,
+                                                                              tmp_path, capsys):
+    """Stands 100 m east and 30 m north of where the points put them (a datum or zone
+    mix-up): the cover warning adds that most trees lie outside every stand; stands where
+    they belong say neither."""
+    st = two_stands["frame"].copy()
+    st.geometry = st.geometry.translate(100, 30)
+    st.to_file(tmp_path / "off.gpkg")
+    capsys.readouterr()
+    assert main(["trees", str(two_stands["las"]), str(tmp_path / "t.gpkg"), "-stands",
+                 str(tmp_path / "off.gpkg")]) == 0
+    said = [ln for ln in capsys.readouterr().err.splitlines() if "covered by the points" in ln]
+    assert len(said) == 1 and "trees lie outside every stand" in said[0] and \
+        "same datum and zone" in said[0], said
+    n_out, n_all = (int(v.replace(",", "")) for v in
+                    re.search(r"and ([\d,]+) of ([\d,]+) trees", said[0]).groups())
+    assert n_out > n_all / 2
+    assert main(["trees", str(two_stands["las"]), str(tmp_path / "u.gpkg"), "-stands",
+                 str(two_stands["stands"])]) == 0
+    assert "outside every stand" not in capsys.readouterr().err

@@ -232,6 +232,12 @@ def open_points(path, *, a_srs=None, t_srs=None, delimiter=None, decimal_comma=N
             raise CRSError(f"{path}: -t_srs needs the source CRS and the file has none; "
                            f"{missing_crs_hint(*_first_xy(src))}")
         src.repro = reprojection(src.src_crs, t_srs)
+        if src.repro.dst.is_geographic:  # a grid needs metres
+            from ..crs import crs_label, utm_hint
+
+            raise CRSError(f"-t_srs {t_srs}: {crs_label(src.repro.dst)} is a geographic CRS "
+                           "(degrees) and the grids need metres: give a projected one, e.g. "
+                           f"-t_srs {utm_hint(src.src_crs, *_first_xy(src))}")
     if require_crs and src.crs is None:
         from ..crs import missing_crs_hint
 

@@ -459,11 +459,17 @@ class StandsTally:
         thin = [r for r in rows if not r["data_cover_pct"] >= MIN_DATA_COVER_PCT]
         if thin:
             listed = ", ".join(f"{r['stand_id']} ({r['data_cover_pct']:.0f} %)" for r in thin[:8])
+            inside = sum(int(r["trees"] or 0) for r in rows)
+            # stands half off the points while most trees stand outside them: the stands and
+            # the points do not meet where they should (a datum, zone or -a_srs mix-up)
+            shifted = (f"; and {self.outside:,} of {self.outside + inside:,} trees lie "
+                       "outside every stand: are the points' CRS (-a_srs) and the stands' "
+                       "the same datum and zone?") if self.outside > inside else ""
             warnings.warn(DataWarning(
                 f"-stands: {len(thin)} of {len(rows)} stand(s) are less than "
                 f"{MIN_DATA_COVER_PCT:g} % covered by the points: {listed}"
                 f"{' ...' if len(thin) > 8 else ''}; their per-hectare figures are those of "
-                "the covered part"), stacklevel=3)
+                f"the covered part{shifted}"), stacklevel=3)
 
 
 #: what each field of the ``stands`` layer means (written as the layer's description)
