@@ -482,3 +482,22 @@ def test_stands_off_the_points_with_most_trees_outside_them_hint_at_the_crs(two_
     assert main(["trees", str(two_stands["las"]), str(tmp_path / "u.gpkg"), "-stands",
                  str(two_stands["stands"])]) == 0
     assert "outside every stand" not in capsys.readouterr().err
+
+
+def test_stands_with_a_crs_on_points_without_one_are_refused(two_stands, tmp_path):
+    """Python, an XYZ without a_srs (no CRS) and stands in EPSG:31984: refused naming the
+    stands, their CRS and a_srs, rather than trees placed on the stands by chance with no CRS;
+    with a_srs the same points run."""
+    import laspy
+
+    import lidartrees_gis as lt
+    from lidartrees_gis.errors import InputError
+
+    las = laspy.read(two_stands["las"])
+    xyz = tmp_path / "voo.xyz"
+    np.savetxt(xyz, np.column_stack([las.x, las.y, las.z, las.classification]), fmt="%.2f")
+    with pytest.raises(InputError, match=r"-stands: .*stands.gpkg.* is in EPSG:31984 .* the "
+                       r"points have no CRS .*a_srs"):
+        lt.find_trees(xyz, stands=two_stands["stands"])
+    tops = lt.find_trees(xyz, stands=two_stands["stands"], a_srs="EPSG:31984")[0]
+    assert tops.crs.to_epsg() == 31984 and len(tops) > 1000

@@ -181,6 +181,12 @@ def load_plots(source, crs=None, *, plot_id: str | None = None,
     gdf = gdf[~(gdf.geometry.isna() | gdf.geometry.is_empty)]
     if len(gdf) == 0:
         raise InputError(f"PLOTS: {name} has no plot with a geometry")
+    if crs is None and gdf.crs is not None:
+        from ..crs import crs_label
+
+        raise InputError(f"PLOTS: {name} is in {crs_label(gdf.crs)} and the points have no "
+                         "CRS (an XYZ file?): give theirs (-a_srs, a_srs=) so that the plots "
+                         "can be placed on them")
     if crs is not None:
         if gdf.crs is None:
             raise CRSError(f"PLOTS: {name} has no CRS; give the layer its CRS (the points' are "

@@ -195,6 +195,12 @@ def load_stands(source, crs=None, id_field: str | None = None) -> Stands:
     ids, used = ids
     geoms, keep = _geometries(gdf, name)
     repro = ""
+    if crs is None and gdf.crs is not None:
+        from ..crs import crs_label
+
+        raise InputError(f"-stands: {name} is in {crs_label(gdf.crs)} and the points have no "
+                         "CRS (an XYZ file?): give theirs (-a_srs, a_srs=) so that the stands "
+                         "can be placed on them")
     if crs is not None and gdf.crs is not None and not gdf.crs.equals(crs):
         from ..crs import check_coordinates, reprojection
 
