@@ -200,9 +200,11 @@ def _stands(df):
 
 def per_stand(det, ref, det_idx, ref_idx, max_dist: float) -> dict:
     """Scores per stand when the reference gives each tree's stand: its reference trees, the
-    detections matched to them, and the unmatched detections of the stand (their own
-    ``stand_id`` when the detections have one, else the stand of the nearest reference tree
-    within ``max_dist``; farther ones count in no stand)."""
+    detections matched to them, and the unmatched detections of the stand: their own
+    ``stand_id`` when it is one of the reference's stands, else the stand of the nearest
+    reference tree (the detections' stands may be another set: the planted blocks of a run
+    without ``-stands``). Every unmatched detection counts in a stand, so the stands' false
+    detections add up to the whole reference's."""
     from scipy.spatial import cKDTree
 
     rs = ref["stand"]
@@ -210,14 +212,14 @@ def per_stand(det, ref, det_idx, ref_idx, max_dist: float) -> dict:
     ds[det_idx] = rs[ref_idx]
     free = np.ones(len(det["x"]), bool)
     free[det_idx] = False
-    if free.any():
-        if det.get("stand") is not None:
-            ds[free] = det["stand"][free]
-        else:
-            dist, k = cKDTree(np.c_[ref["x"], ref["y"]]).query(
-                np.c_[det["x"][free], det["y"][free]], distance_upper_bound=max_dist)
-            ok = np.isfinite(dist)
-            ds[np.nonzero(free)[0][ok]] = rs[k[ok]]
+    if det.get("stand") is not None:
+        own = free & np.isin(np.asarray(det["stand"], dtype=object),
+                             np.asarray(sorted(set(rs.tolist()) - {""}), dtype=object))
+        ds[own] = np.asarray(det["stand"], dtype=object)[own]
+        free &= ~own
+    if free.any() and len(ref["x"]):
+        _, k = cKDTree(np.c_[ref["x"], ref["y"]]).query(np.c_[det["x"][free], det["y"][free]])
+        ds[np.nonzero(free)[0]] = rs[k]
     out = {}
     for sid in sorted(set(rs.tolist()) - {""}):
         m = int((rs[ref_idx] == sid).sum())
