@@ -509,3 +509,22 @@ def test_stands_with_a_crs_on_points_without_one_are_refused(two_stands, tmp_pat
         lt.find_trees(xyz, stands=two_stands["stands"])
     tops = lt.find_trees(xyz, stands=two_stands["stands"], a_srs="EPSG:31984")[0]
     assert tops.crs.to_epsg() == 31984 and len(tops) > 1000
+
+
+def test_the_summary_with_stands_gives_their_trees_per_ha_and_spacings(two_stands):
+    """With -stands the run's trees per ha are also given over the stands' covered area (the
+    points' extent holds roads and clearings), and one spacing is not claimed for stands of
+    several."""
+    import lidartrees_gis as lt
+    from lidartrees_gis.als.chain import stands_summary
+
+    summary = lt.find_trees(two_stands["las"], stands=two_stands["stands"])[2]
+    # two stands of 0.64 ha covering the points, every tree inside one
+    assert summary["stands_trees_per_ha"] == pytest.approx(summary["trees"] / 1.28, rel=0.01)
+    row = {"spacing": "3x2", "row_azimuth": 35.0, "numbering": "row 1 ..."}
+    stands_summary(row, [{"trees": 10, "area_ha": 1.0, "data_cover_pct": 100.0,
+                          "lattice": "found", "spacing": "3x2"},
+                         {"trees": 5, "area_ha": 1.0, "data_cover_pct": 50.0,
+                          "lattice": "found", "spacing": "3x3"}])
+    assert row["stands_trees_per_ha"] == pytest.approx(10.0)
+    assert row["spacing"] == "per stand (3x2, 3x3)" and row["row_azimuth"] is None

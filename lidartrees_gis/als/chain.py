@@ -319,6 +319,7 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
                     warn_sparse_plantation(_density(area, plan, ready, runner))
                 if stands.source != BLOCKS_SOURCE:  # blocks lie where the tops are
                     tally.check_cover(srows)
+                    stands_summary(row, srows)
                 if stand_csv:
                     write_stand_csv(sinks["stand_csv"], srows, out.table)
             sinks["layers"].finish(row, p.spacing is not None,
@@ -326,13 +327,33 @@ def trees_run(input, output=None, *, params: TreeParams | None = None,
         if chm_out:
             sidecar(chm_out, "chm.qml", out.overwrite, sinks["chm"].max)
         if png:
-            sinks["quicklook"].write(png, _title(row, input, title), out.overwrite,
+            head = row if "stands_trees_per_ha" not in row else \
+                {**row, "trees_per_ha": row["stands_trees_per_ha"]}  # the stands', not the extent's
+            sinks["quicklook"].write(png, _title(head, input, title), out.overwrite,
                                      stands=None if stands is None else (stands.ids, stands.geoms))
     prog.update(1.0, "done")
     res = _trees_result(output, area, plan, summary, row, p, sinks["layers"], surface)
     if stands is not None:
         res.update(_stands_result(stands, srows, tally, stand_csv))
     return check_failed(runner, res)
+
+
+def stands_summary(row: dict, srows: list) -> None:
+    """With the user's stands, the summary's figures that would describe the points' whole
+    extent (its roads and clearings) or one lattice for stands of several: the trees per ha
+    of the stands' covered area (``stands_trees_per_ha``, the quick look's title), and the
+    spacing ``per stand`` (with each) when the stands' lattices differ."""
+    trees = sum(int(r.get("trees") or 0) for r in srows)
+    ha = sum(float(r["area_ha"]) * float(r.get("data_cover_pct") or 0.0) / 100.0
+             for r in srows)
+    if ha > 0:
+        row["stands_trees_per_ha"] = trees / ha
+    found = sorted({str(r["spacing"]) for r in srows if r.get("lattice") == "found"
+                    and r.get("spacing")})
+    if len(found) > 1 and "spacing" in row:
+        row["spacing"] = f"per stand ({', '.join(found)})"
+        row["row_azimuth"] = None
+        row["numbering"] = "per stand (the stands layer's lattice of each)"
 
 
 def check_chm_plantation(p: TreeParams, stands, label: str) -> None:
@@ -566,6 +587,8 @@ def _trees_result(output, area, plan, summary, row, p, layers, surface) -> dict:
            "suppressed_trees": int(row["suppressed_trees"]),
            "uncertain_trees": int(row["uncertain_trees"]),
            "trees_per_ha": _round(row["trees_per_ha"], 1),
+           **({"stands_trees_per_ha": _round(row["stands_trees_per_ha"], 1)}
+              if "stands_trees_per_ha" in row else {}),
            "gap_trees": int(row["gap_trees"]),
            "planting_detected": row["planting_detected"] or None,
            "planting_tiles": int(row["planting_tiles"]),
