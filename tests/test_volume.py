@@ -366,18 +366,21 @@ def test_warnings_extra_table_plots_and_overlaps(farm, tmp_path):
     a, b = r["layers"]["plots"], base["layers"]["plots"]
     assert np.allclose(a["n_trees"], b["n_trees"]) and len(a) == len(b) == 9
     # a radius of half the plots' (5.64 m for 400 m² plots): the table's trees fill a quarter
-    # of the area, four times the trees detected there; said, with the tree method's data
+    # of the area, four times the trees detected there; said, with the tree method's data,
+    # and by the table's trees per ha alone with the area-based approach (once each)
     kw["plot_radius"] = 5.64
-    for approach, said_it in (("both", True), ("aba", False)):
+    for approach, said_it in (("both", True), ("aba", True)):
         with warnings.catch_warnings(record=True) as rec:
             warnings.simplefilter("always")
             lt.volume(d / "farm.laz", d / "plots.gpkg", trees_table=d / "arvores.csv",
                       approach=approach, **kw)
         said = [str(w.message) for w in rec if "check -plot_radius" in str(w.message)]
         assert len(said) == int(said_it), said
-        if said_it:
+        if approach == "both":
             ratio = float(said[0].split(" are ")[1].split(" times")[0])
             assert 3.0 < ratio < 5.5 and "(median of 9 plots; 100 m² a plot)" in said[0]
+        else:
+            assert "more than any planting design" in said[0] and "of 100 m²" in said[0]
 
 
 def test_a_model_that_predicts_its_plots_poorly_is_said(recwarn):
@@ -527,12 +530,12 @@ def test_alt_is_a_height_column_and_a_table_without_one_is_named(tmp_path):
 
     g = gpd.GeoDataFrame({"parcela": [1]}, geometry=[shapely.Point(0, 0)], crs=31984)
     with pytest.raises(InputError, match=r"-plot_radius must be > 0 m, got -5"):
-        load_plots(g, plot_radius=-5.0)
+        load_plots(g, g.crs, plot_radius=-5.0)
     from lidartrees_gis.errors import DataWarning
 
     with pytest.warns(DataWarning, match=r"-plot_radius 11.28 ignored: PLOTS GeoDataFrame holds "
                       "polygons"):
-        p = load_plots(g.set_geometry(g.buffer(10.0)), plot_radius=11.28)
+        p = load_plots(g.set_geometry(g.buffer(10.0)), g.crs, plot_radius=11.28)
     assert p.area_m2[0] == pytest.approx(np.pi * 100, rel=0.01)
 
 

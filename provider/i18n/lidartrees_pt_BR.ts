@@ -960,6 +960,14 @@
       <translation>Tabela das árvores de campo (CSV/TXT, pt-BR ou inglês): parcela, arvore, DAP cm (dap) ou CAP cm (cap), HT m (ht, de todas ou de algumas árvores), volume m³ (opcional); lê também .xlsx</translation>
     </message>
     <message>
+      <source>Volume field</source>
+      <translation>Campo de volume</translation>
+    </message>
+    <message>
+      <source>The plots' volume field (m³/ha) when there is no tree table (default: the first of volume_m3_ha, vol_ha, vtcc_ha, volume, vol)</source>
+      <translation>Campo de volume das parcelas (m³/ha) quando não há tabela de árvores (padrão: o primeiro de volume_m3_ha, vol_ha, vtcc_ha, volume, vol)</translation>
+    </message>
+    <message>
       <source>Volume equation</source>
       <translation>Equação de volume</translation>
     </message>
