@@ -330,13 +330,11 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
         "spacing": st["spacing"]}
     out["stand_stocking"] = None if st is None else st["zones"]
     # why a stand (or the area: "all") whose canopy shows rows has no lattice
-    out["lattice_why"] = {} if st is None else {
-        k[1]: v for k, v in (st.get("grids") or {}).items()
-        if isinstance(k, tuple) and k[0] == "why"}
-    # an explicit spacing's stands whose tops lie on another lattice
-    out["lattice_other"] = {} if st is None else {
-        k[1]: v for k, v in (st.get("grids") or {}).items()
-        if isinstance(k, tuple) and k[0] == "other"}
+    # and, with an explicit spacing, the stands whose tops lie on another lattice
+    found = {} if st is None else (st.get("grids") or {})
+    for kind in ("why", "other"):
+        out[f"lattice_{kind}"] = {k[1]: v for k, v in found.items()
+                                  if isinstance(k, tuple) and k[0] == kind}
     if under is not None:  # no crown of their own: a NULL crown polygon
         out = {c: np.r_[out[c], under[c]] for c in TREE_FIELDS} | {
             k: v for k, v in out.items() if k not in TREE_FIELDS}

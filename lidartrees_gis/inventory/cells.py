@@ -42,7 +42,8 @@ class CellShares:
         return cls(cell, cs[cell], np.ones(cell.size))
 
     def means(self, v, n_stands: int) -> tuple:
-        """``(area-weighted mean of the cells' finite v per stand, their summed weight)``."""
+        """``(area-weighted mean of the units' finite v per stand, their summed weight)``;
+        ``v`` one value a unit (the cells', then the pieces')."""
         v = np.asarray(v, float).ravel()[self.cell]
         ok = np.isfinite(v)
         s = np.bincount(self.stand[ok], weights=self.weight[ok] * v[ok], minlength=n_stands)

@@ -103,7 +103,9 @@ def _columns(df, path) -> dict:
     return found
 
 
-def _numbers(df, col, path, what):
+def _numbers(df, col, path, what, frame: bool = False):
+    """The column as floats (decimal commas read); a cell that is no number refused by its
+    line in the file (its row in a DataFrame: ``frame``)."""
     import pandas as pd
 
     v = pd.to_numeric(df[col].astype(str).str.replace(",", ".").str.strip()
@@ -111,7 +113,7 @@ def _numbers(df, col, path, what):
     bad = v.isna() & df[col].notna() & (df[col].astype(str).str.strip() != "")
     if bad.any():
         i = int(np.flatnonzero(bad.to_numpy())[0])
-        where = f"row {i}" if str(path).startswith("<DataFrame") else f"line {i + 2}"
+        where = f"row {i}" if frame else f"line {i + 2}"
         raise InputError(f"-trees_table: {path}: {where}: {what} {df[col].iloc[i]!r} is not "
                          "a number")
     return v.to_numpy(dtype=float)
@@ -135,7 +137,8 @@ def read_trees(path) -> dict:
 
     from ..io.names import read_text_table
 
-    if isinstance(path, pd.DataFrame):
+    frame = isinstance(path, pd.DataFrame)
+    if frame:
         df, path = path.reset_index(drop=True), table_label(path)
     else:
         try:
@@ -148,10 +151,10 @@ def read_trees(path) -> dict:
     plot = [str(int(v)) if isinstance(v, float) and float(v).is_integer() else str(v).strip()
             for v in df[cols["plot"]].tolist()]
     if "dap" in cols:
-        dap = _numbers(df, cols["dap"], path, "DAP")
+        dap = _numbers(df, cols["dap"], path, "DAP", frame)
         name, limit = "DAP", DAP_MM
     else:
-        dap = _numbers(df, cols["cap"], path, "CAP") / np.pi
+        dap = _numbers(df, cols["cap"], path, "CAP", frame) / np.pi
         name, limit = "CAP", DAP_MM * np.pi
     ok = np.isfinite(dap) & (dap > 0)
     if not ok.any():
@@ -171,9 +174,9 @@ def read_trees(path) -> dict:
     if "ht" not in cols:  # the heights of the trees without one come from those measured
         raise InputError(f"-trees_table: {path}: no HT column (ht, altura, alt, h); columns: "
                          f"{', '.join(map(str, df.columns))}")
-    ht = _numbers(df, cols["ht"], path, "HT")
+    ht = _numbers(df, cols["ht"], path, "HT", frame)
     _check_heights(ht, dap, ok, path, cols)
-    vol = _numbers(df, cols["volume"], path, "volume") if "volume" in cols else np.full(n, np.nan)
+    vol = _numbers(df, cols["volume"], path, "volume", frame) if "volume" in cols else np.full(n, np.nan)
     tree = df[cols["tree"]].astype(str).to_numpy() if "tree" in cols else \
         np.arange(1, n + 1).astype(str)
     dead = ~ok  # a row without DAP (a dead or missing tree noted by the crew): left out

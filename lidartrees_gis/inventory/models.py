@@ -14,7 +14,8 @@ metrics for ``n`` plots (3 plots per coefficient beyond the intercept and 2 more
 needs at least :data:`MIN_PLOTS` plots.
 
 Stand estimates: the mean of the model's cell predictions in the stand (cells of the plots'
-size), each cell weighted by its share of area inside the stand (:class:`CellShares`). Their 95 % interval ``estimate ± t(0.975, n - p - 1) · sqrt(V_boot + σ²_stand)``:
+size, and the pieces of cells its border cuts, each by its area: :class:`~.cells.CellShares`).
+Their 95 % interval ``estimate ± t(0.975, n - p - 1) · sqrt(V_boot + σ²_stand)``:
 ``V_boot`` the variance of the stand's estimate over bootstrap resamples of the plots (the model
 chosen again on each resample's distinct plots and refitted on the resample, :data:`BOOTSTRAP`
 resamples; the variance of a normal with their central 95 %
@@ -303,10 +304,6 @@ def boot_variance(reps, n: int) -> np.ndarray:
     return ((q[1] - q[0]) / 3.92) ** 2
 
 
-def _stand_means(pred, cell_stand, n_stands):
-    return CellShares.of(cell_stand).means(pred, n_stands)
-
-
 def t975(dof: int) -> float:
     from scipy import stats
 
@@ -417,8 +414,8 @@ def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_
     valid = np.isfinite(Xc).all(axis=1)
     # no cell holds less than nothing: a linear model below its plots' heights (a young stand
     # without a plot) would go negative
-    synth, cells = _stand_means(np.where(valid, np.maximum(model.predict(cell_metrics), 0.0),
-                                         np.nan), cell_stand, n_stands)
+    synth, cells = cell_stand.means(np.where(valid, np.maximum(model.predict(cell_metrics),
+                                                               0.0), np.nan), n_stands)
     resid = y - model.stats["loo"]
     if reselect:  # the whole procedure's leave-one-out residuals, the choice included
         nested = y - np.maximum(nested_loo(plot_metrics, y, model.target), 0.0)
@@ -482,7 +479,7 @@ def aba_stands(model: AbaModel, plot_metrics: dict, y, cell_metrics: dict, cell_
         pred = np.full(Xr.shape[0], np.nan)
         with np.errstate(over="ignore"):
             pred[ok] = np.exp(eta + s2 / 2) if m.form == "loglog" else np.maximum(eta, 0.0)
-        rep = _stand_means(pred, cell_stand, n_stands)[0]
+        rep = cell_stand.means(pred, n_stands)[0]
         if gw.any():  # the resample's model corrected by the stand's own plots, as above
             with np.errstate(over="ignore"):
                 fp = Xp @ coef

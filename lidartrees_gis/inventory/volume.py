@@ -139,23 +139,6 @@ def _cell_res(options: VolumeOptions, plots) -> float:
     return float(options.res)
 
 
-def _cells(grid, covered, pieces_metrics=None, pieces_covered=None) -> tuple:
-    """``(cells, units)``: the cells' metrics as flat arrays (NaN where not ``covered``: not
-    predicted), and the same followed by the pieces' (:func:`~.cells.cell_shares`), the
-    units a stand's figure is the mean of."""
-    from .metrics import METRICS
-
-    keep = np.asarray(covered, bool).ravel()
-    cells = {k: np.where(keep, grid[i].ravel().astype(np.float64), np.nan)
-             for i, k in enumerate(METRICS)}
-    if pieces_metrics is None:
-        return cells, cells
-    on = np.asarray(pieces_covered, bool)
-    units = {k: np.concatenate([cells[k], np.where(on, np.asarray(pieces_metrics[k], float),
-                                                   np.nan)]) for k in METRICS}
-    return cells, units
-
-
 def stand_cells(area, res: float, stand_geoms) -> tuple:
     """``(grid, CellShares, pieces as Zones, unit_cell)``: the metric cells
     :func:`~.tiles.area_metrics` makes over ``area`` at ``res``, how they and the pieces the
@@ -172,13 +155,19 @@ def unit_metrics(r, pieces) -> tuple:
     """``(cells, units, cells left out)`` from an :func:`~.tiles.area_metrics` result whose
     last zone set is ``pieces`` (:func:`stand_cells`): cells and pieces less than
     :data:`MIN_CELL_COVER` covered by the returns are not predicted."""
+    from .metrics import METRICS
+
     spec, grid = r["cells"]
-    covered = r["coverage"] >= MIN_CELL_COVER
+    covered = (r["coverage"] >= MIN_CELL_COVER).ravel()
     pc = cover_shares(*r["occupied"], pieces.geoms) >= MIN_CELL_COVER if len(pieces) else \
         np.zeros(0, bool)
-    cells, units = _cells(grid, covered, r["zones"][-1], pc)
-    has = np.isfinite(np.r_[grid[0].ravel(), r["zones"][-1]["n"]])
-    return cells, units, ~np.r_[covered.ravel(), pc] & has
+    pm = r["zones"][-1]
+    cells = {k: np.where(covered, grid[i].ravel().astype(np.float64), np.nan)
+             for i, k in enumerate(METRICS)}
+    units = {k: np.concatenate([cells[k], np.where(pc, np.asarray(pm[k], float), np.nan)])
+             for k in METRICS}
+    has = np.isfinite(np.r_[grid[0].ravel(), pm["n"]])
+    return cells, units, ~np.r_[covered, pc] & has
 
 
 def cover_shares(sub, occupied, geoms) -> np.ndarray:

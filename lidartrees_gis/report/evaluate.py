@@ -198,7 +198,7 @@ def _stands(df):
                        for a in v.tolist()], dtype=object)
 
 
-def per_stand(det, ref, det_idx, ref_idx, max_dist: float) -> dict:
+def per_stand(det, ref, det_idx, ref_idx) -> dict:
     """Scores per stand when the reference gives each tree's stand: its reference trees, the
     detections matched to them, and the unmatched detections of the stand: their own
     ``stand_id`` when it is one of the reference's stands, else the stand of the nearest
@@ -302,7 +302,7 @@ def evaluate_file(detected, reference, output=None, *, layer=None, ref_layer=Non
     if area_note:
         report["area"] = area_note
     if ref.get("stand") is not None and len(ref["stand"]) == len(ref["x"]):
-        report["stands"] = per_stand(det, ref, d, rr, max_dist)
+        report["stands"] = per_stand(det, ref, d, rr)
     if output is not None:
         with atomic_output(output, overwrite) as tmp:
             if str(output).lower().endswith((".csv", ".xlsx")):
