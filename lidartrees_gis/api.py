@@ -85,7 +85,9 @@ def find_trees(input, *, params=None, res="auto", dtm="auto", chm="pitfree", fil
     crowns : geopandas.GeoDataFrame
         One polygon per tree with the same ``tree_id``.
     summary : dict
-        The stand summary (trees, trees per ha, mean height, crown scale, stocking ...).
+        The stand summary (trees, trees per ha, mean height, crown scale, stocking ...); in
+        the plantation mode ``summary["gaps"]``, a GeoDataFrame of the empty planting positions
+        (the ``gaps`` layer: row and plant numbers, status missing / suppressed / uncertain).
     """
     from .als.chain import trees_run
     from .catalog.catalog import TilingOptions
@@ -97,8 +99,9 @@ def find_trees(input, *, params=None, res="auto", dtm="auto", chm="pitfree", fil
                   stand_id=stand_id, progress=progress)
     layers = r["layers"]
     summary = layers["summary"].iloc[0].to_dict()
-    if "stands" in layers:
-        summary["stands"] = layers["stands"]
+    for k in ("stands", "gaps"):
+        if k in layers:
+            summary[k] = layers[k]
     return layers["tree_tops"], layers["crowns"], summary
 
 

@@ -273,3 +273,20 @@ def test_rows_and_plants_are_numbered_per_stand_in_every_tiling(farm, tmp_path, 
         assert (own["row_number"] == want_row).mean() > 0.99, sid
         assert (own["plant_number"] == want_plant).mean() > 0.99, sid
         assert own["row_number"].min() == 1 and own["plant_number"].min() == 1
+    # stands drawn along the roads around them, 6 m out from the first row and plant: row 1
+    # is still the first planted row, plant 1 each row's first tree (once the numbers started
+    # at the polygon's edge, row 3 and plant 4 for the first tree)
+    roads = [shapely.box(OX - 6, OY - 6, OX + 40, OY + 86),
+             shapely.box(OX + 40, OY - 6, OX + 86, OY + 86)]
+    gpd.GeoDataFrame({"Talhão": ["T-01", "T-02"]}, geometry=roads,
+                     crs="EPSG:31984").to_file(tmp_path / "roads.gpkg")
+    _trees(farm, tmp_path / "roads_out.gpkg", "-stands", str(tmp_path / "roads.gpkg"),
+           "-spacing", "3x2")
+    t3 = pyogrio.read_dataframe(tmp_path / "roads_out.gpkg", layer="tree_tops",
+                                read_geometry=False)
+    for sid, x0 in (("T-01", OX), ("T-02", OX + 40)):
+        own = t3[(t3["stand_id"] == sid) & (t3["row_number"] > 0)]
+        want_row = np.round((own["x"] - x0 - 1.5) / 3).astype(int) + 1
+        want_plant = np.round((own["y"] - OY - 1.0) / 2).astype(int) + 1
+        assert (own["row_number"] == want_row).mean() > 0.99, sid
+        assert (own["plant_number"] == want_plant).mean() > 0.99, sid

@@ -74,6 +74,15 @@ def test_xyz_bom_is_dropped(tmp_path):
     assert len(pts) == 3 and pts.x[0] == 1.0
 
 
+def test_header_only_xyz_says_it_has_no_points(tmp_path, capsys):
+    f = tmp_path / "h.xyz"
+    f.write_text("X\tY\tZ\n", encoding="utf-8")
+    assert main(["trees", str(f), str(tmp_path / "h.gpkg"), "-a_srs", "EPSG:31983", "-q"]) == 1
+    err = capsys.readouterr().err
+    assert "h.xyz: a header line and no points" in err
+    assert not (tmp_path / "h.gpkg").exists()
+
+
 @pytest.mark.parametrize("bad", ["1_000", "\u0661\u0662\u0663"])  # underscores, Arabic-Indic digits
 def test_xyz_numbers_python_would_take_are_refused(tmp_path, capsys, bad):
     f = tmp_path / "n.xyz"
@@ -409,7 +418,8 @@ def test_decimal_commas_with_comma_delimiters_are_warned(tmp_path, capsys):
     h = tmp_path / "ints.csv"
     h.write_text("".join(f"{500000 + i},{7000000 + i},{20 + i % 9},{i % 255},2,1\n" for i in range(40)))
     assert main(["info", str(h), "-a_srs", "EPSG:31984", "-q"]) == 0
-    assert "warning" not in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "decimal commas" not in err and "column 5 read as the point classes" in err
 
 
 def _read_only_folder():
@@ -513,3 +523,33 @@ def test_printed_lines_follow_a_ptbr_locale(small_las, capsys, monkeypatch):
     for keep in ("/data/2.5/v_1.2.gpkg", "lidartrees_gis 0.21.1", "C:\\voo\\3.5\\a.laz",
                  "2.5e-3", "farm.laz", "voo_3x1.5.laz"):
         assert decimal_commas(keep) == keep
+
+
+def test_headerless_xyz_reads_a_class_column_but_not_return_numbers(tmp_path):
+    """x y z class with no header: the classes are read (said in a warning), so the ground
+    class and the noise classes count; x y z return_number (mostly 1) is left unread."""
+    import warnings
+
+    from lidartrees_gis.errors import DataWarning
+    from lidartrees_gis.io.points import open_points
+
+    rng = np.random.default_rng(3)
+    n = 60
+    xy = rng.uniform(0, 50, (n, 2)) + [412000.0, 7456000.0]
+    cls = np.where(np.arange(n) % 3 == 0, 2, 1)
+    cls[5] = 7
+    f = tmp_path / "c.xyz"
+    f.write_text("".join(f"{x:.2f}\t{y:.2f}\t{10 + i % 5:.2f}\t{c}\n".replace(".", ",")
+                         for i, ((x, y), c) in enumerate(zip(xy, cls))), encoding="utf-8")
+    with pytest.warns(DataWarning, match="column 4 read as the point classes"):
+        pts = open_points(f).read_all()
+    assert (pts.classification == cls).all()
+    ret = np.where(np.arange(n) % 4 == 0, 2, 1)
+    g = tmp_path / "r.xyz"
+    g.write_text("".join(f"{x:.2f} {y:.2f} {10 + i % 5:.2f} {r}\n"
+                         for i, ((x, y), r) in enumerate(zip(xy, ret))), encoding="utf-8")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        pts = open_points(g).read_all()
+    assert getattr(pts, "classification", None) is None or \
+        not np.array_equal(pts.classification, ret)

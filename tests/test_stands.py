@@ -519,6 +519,14 @@ def test_the_summary_with_stands_gives_their_trees_per_ha_and_spacings(two_stand
     from lidartrees_gis.als.chain import stands_summary
 
     summary = lt.find_trees(two_stands["las"], stands=two_stands["stands"])[2]
+    # the empty planting positions come back too, as the gaps layer, each in its stand
+    gaps = summary["gaps"]
+    status = gaps["status"].value_counts()
+    assert status.get("missing", 0) == summary["missing_trees"] > 0
+    assert len(gaps) == summary["missing_trees"] + summary["uncertain_positions"] \
+        + summary["suppressed_trees"]
+    assert set(gaps["stand_id"]) <= {"T-01", "T-02"} and gaps.crs.to_epsg() == 31984
+    assert set(gaps["status"]) <= {"missing", "suppressed", "uncertain"}
     # two stands of 0.64 ha covering the points, every tree inside one
     assert summary["stands_trees_per_ha"] == pytest.approx(summary["trees"] / 1.28, rel=0.01)
     row = {"spacing": "3x2", "row_azimuth": 35.0, "numbering": "row 1 ..."}
@@ -528,3 +536,38 @@ def test_the_summary_with_stands_gives_their_trees_per_ha_and_spacings(two_stand
                           "lattice": "found", "spacing": "3x3"}])
     assert row["stands_trees_per_ha"] == pytest.approx(10.0)
     assert row["spacing"] == "per stand (3x2, 3x3)" and row["row_azimuth"] is None
+
+
+def test_stand_words_for_no_tops_and_a_square_lattice():
+    """A stand with no tree top says so (not "0 tops, fewer than the 100 needed"); a square
+    lattice's printed rows say they could run across, and the numbering rule says why."""
+    from lidartrees_gis.als.chain import _square
+    from lidartrees_gis.plantation.lattice import PlantingGrid
+    from lidartrees_gis.plantation.stockreport import stocking_fields
+    from lidartrees_gis.plantation.stocking import crew_numbers
+
+    r = stocking_fields(None, 0.0, {"expected": 0, "stocked": 0, "missing": 0, "extra": 0,
+                                    "planted_area_ha": 0.0}, tops=0)
+    assert r["lattice"] == "no planting lattice: no tree top in it"
+    assert r["stocking_pct"] is None
+    assert _square("3x3") == ", or across: a square lattice" and _square("3x2") == ""
+    sq = PlantingGrid(3.0, 3.0, 112.0, 0.0, 0.0, 1.0)
+    assert "square lattice" in crew_numbers(sq, [0, 1], [0, 0])[2]
+    assert "square" not in crew_numbers(PlantingGrid(3.0, 2.0, 35.0, 0.0, 0.0, 1.0), [0], [0])[2]
+
+
+def test_windows_shapefile_without_cpg_keeps_its_dashes_and_quotes(tmp_path):
+    """A cp1252 shapefile without its .cpg (GDAL reads it as Latin-1): the dash and quotes of
+    "T–01 “Açaí”" come back as written, not as control characters; with a .cpg it is GDAL's."""
+    import os
+
+    from lidartrees_gis.plantation.stands import load_stands
+
+    g = gpd.GeoDataFrame({"TALHÃO": ["T–01 “Açaí”", "T-02 São João"]},
+                         geometry=[shapely.box(0, 0, 50, 50), shapely.box(50, 0, 100, 50)],
+                         crs="EPSG:31983")
+    g.to_file(tmp_path / "w.shp", encoding="cp1252")
+    os.remove(tmp_path / "w.cpg")
+    assert gpd.read_file(tmp_path / "w.shp").iloc[0, 0] == "T\x9601 \x93Açaí\x94"  # GDAL's
+    st = load_stands(tmp_path / "w.shp", crs=CRS.from_epsg(31983))
+    assert list(st.ids) == ["T–01 “Açaí”", "T-02 São João"]

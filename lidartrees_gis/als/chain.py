@@ -457,14 +457,23 @@ def _stands_result(stands, rows, tally, stand_csv) -> dict:
             text += f", {r['lattice']}"
         elif "stocking_pct" in r:
             text += (f", stocking {_round(r['stocking_pct'], 1)} % "
-                     f"(unresolved positions {_round(r['stocking_pct_low'], 1)}-"
+                     f"(95 % interval {_round(r['stocking_pct_low'], 1)}-"
                      f"{_round(r['stocking_pct_high'], 1)}; "
                      f"{r['missing_trees']} "
                      f"missing, {r['suppressed_trees']} suppressed, "
                      f"{r['uncertain_positions']} uncertain of "
-                     f"{r['planting_positions']} positions, rows at {r['row_azimuth']:.1f}°)")
+                     f"{r['planting_positions']} positions, rows at {r['row_azimuth']:.1f}°"
+                     f"{_square(r['spacing'])})")
         out[f"stand {r['stand_id']}"] = text
     return out
+
+
+def _square(spacing) -> str:
+    """The stand line's words for a square lattice (its rows could run either way)."""
+    from ..plantation.stocking import SQUARE_SHARE
+
+    r, c = (float(v) for v in str(spacing).split("x"))
+    return ", or across: a square lattice" if abs(r - c) <= SQUARE_SHARE * c else ""
 
 
 def _density(area, plan: AreaPlan, ready, runner) -> float:

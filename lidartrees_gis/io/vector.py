@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import re
 import shutil
 from pathlib import Path
 
@@ -155,11 +156,46 @@ def read_polygons(source, *, param: str):
 
         raise ReadError(f"{param}: {path}: cannot read as a vector file "
                         f"({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})") from None
+    gdf = _windows_text(gdf, path)
     if not isinstance(gdf, gpd.GeoDataFrame) or gdf.geometry.name not in gdf.columns:
         raise InputError(f"{param}: {path}: a table without geometries; give a vector layer "
                          "(GeoPackage, shapefile) of polygons or of points (in QGIS: Add "
                          "Delimited Text Layer, then save it as a GeoPackage)")
     return gdf, f"{path}{':' + layer if layer else ''}"
+
+
+_C1 = re.compile("[\x80-\x9f]")
+
+
+def _c1_to_cp1252(text):
+    """A text read as Latin-1 that holds C1 control characters, read again as Windows-1252
+    (``\x93Açaí\x94`` is “Açaí”); any other value as it is."""
+    if not isinstance(text, str) or not _C1.search(text):
+        return text
+    try:
+        return text.encode("latin-1").decode("cp1252")
+    except (UnicodeEncodeError, UnicodeDecodeError):
+        return text
+
+
+def _windows_text(gdf, path):
+    """A shapefile without a ``.cpg`` is read by GDAL as Latin-1 (its DBF names no code page);
+    the Windows exports users bring are Windows-1252, whose dashes, quotes and € Latin-1 reads
+    as control characters: those texts, and field names, are read again as Windows-1252."""
+    import pandas as pd
+
+    p = Path(path)
+    if p.suffix.lower() not in (".shp", ".dbf") or p.with_suffix(".cpg").exists() \
+            or p.with_suffix(".CPG").exists():
+        return gdf
+    names = {c: _c1_to_cp1252(c) for c in gdf.columns}
+    if any(k != v for k, v in names.items()):
+        gdf = gdf.rename(columns=names)
+    for c in gdf.columns:
+        if c != gdf.geometry.name and (gdf[c].dtype == object
+                                        or pd.api.types.is_string_dtype(gdf[c].dtype)):
+            gdf[c] = gdf[c].map(_c1_to_cp1252)
+    return gdf
 
 
 _EXT_SQL = ("CREATE TABLE IF NOT EXISTS gpkg_extensions (table_name TEXT, column_name TEXT, "

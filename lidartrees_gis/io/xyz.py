@@ -211,6 +211,8 @@ def sniff_xyz(path, *, delimiter=None, decimal_comma=None, header=None, columns=
         raise InputError(f"{path}: a decimal comma cannot be used with a comma delimiter")
     numeric = sum(1 for ln in lines
                   if sum(_is_number(t.strip(), decimal_comma) for t in _split(ln, delim)) >= 2)
+    if numeric == 0 and len(lines) == 1:
+        raise InputError(f"{path}: a header line and no points")
     if numeric < max(1, (len(lines) - 1) / 2):
         raise InputError(f"{path}: only {numeric} of the first {len(lines)} lines hold numbers; "
                          "this is not point data (XYZ text has x y z per line)")
@@ -247,9 +249,50 @@ def sniff_xyz(path, *, delimiter=None, decimal_comma=None, header=None, columns=
             raise InputError(f"{path}: line 1 has {ncols} column(s); need at least x, y, z "
                              f"(line: {lines[0][:80]!r}); check --delimiter")
         cols = ("x", "y", "z") + (None,) * (ncols - 3)
+        k = _class_column(lines, delim, bool(decimal_comma), ncols)
+        if k is not None:
+            from ..errors import DataWarning
+
+            cols = cols[:k] + ("classification",) + cols[k + 1:]
+            warnings.warn(f"{path}: no header; column {k + 1} read as the point classes (its "
+                          "values are ASPRS classes, ground 2 among them); give --columns "
+                          "(e.g. x,y,z,intensity) if it is not", DataWarning, stacklevel=2)
     thousands = bool(decimal_comma) and _thousands_columns(path, lines[1:] if header else lines,
                                                            delim, cols)
     return XYZDialect(delim, bool(decimal_comma), bool(header), cols, thousands, encoding)
+
+
+#: the ASPRS classes (LAS 1.4 standard: 0-18) a headerless column's values must all be for
+#: :func:`_class_column` to take it for the point classes
+ASPRS_MAX_CLASS = 18
+
+
+def _class_column(lines, delim, decimal_comma: bool, ncols: int):
+    """The column (0-based, beyond x, y, z) of a headerless file whose sampled values look like
+    point classes, or None: whole numbers 0-18 with ground (2) among them, and either a class
+    a return number cannot be (6 or above) or ground in at least half the lines (a return
+    number column is mostly 1; reading it as classes would make the terrain of second
+    returns, so a column that could be either is left unread)."""
+    for k in range(3, ncols):
+        vals = []
+        for ln in lines:
+            t = _split(ln, delim)
+            if k >= len(t):
+                return None
+            v = t[k].strip().replace(",", ".") if decimal_comma else t[k].strip()
+            try:
+                f = float(v)
+            except ValueError:
+                vals = []
+                break
+            vals.append(f)
+        a = np.asarray(vals)
+        if not a.size or np.any(a != np.round(a)) or a.min() < 0 or a.max() > ASPRS_MAX_CLASS:
+            continue
+        ground = np.mean(a == 2)
+        if ground > 0 and (a.max() >= 6 or ground >= 0.5):
+            return k
+    return None
 
 
 def _looks_like_classes(name) -> bool:

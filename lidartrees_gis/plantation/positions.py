@@ -391,8 +391,27 @@ def add_anchors(grids: dict, regions: dict, res: float, zones=None) -> dict:
         region = regions.get(int(k), regions.get(-1))
         if key in grids or g is None or region is None:
             continue
-        grids[key] = lattice_anchor(g, region, res)
+        span = grids.get(("span", int(k)))
+        grids[key] = span_anchor(g, span) if span is not None and len(span[0]) \
+            else lattice_anchor(g, region, res)
     return grids
+
+
+def span_anchor(grid: PlantingGrid, span) -> tuple:
+    """Where a stand's row and plant numbers start, from where it was planted
+    (:func:`row_spans`): row 1 is its outermost planted row, plant 1 each row's first planted
+    position, as a crew counts them (the nodes between the polygon's edge and the first row, a
+    road or firebreak, are not counted). ``(j0, first)`` as :func:`lattice_anchor`'s."""
+    from .stocking import row_heading
+
+    s = int(row_heading(grid)[0])
+    rows, first, last = (np.asarray(a, np.int64) for a in span[:3])
+    sj = s * rows
+    si = first if s > 0 else -last
+    j0 = int(sj.min())
+    out = np.full(int(sj.max()) - j0 + 1, np.iinfo(np.int64).max, np.int64)
+    np.minimum.at(out, sj - j0, si)
+    return j0, out
 
 
 def top_zones(top_x, top_y, zone, spec) -> np.ndarray:

@@ -539,7 +539,8 @@ def field_docs(columns) -> dict:
 #: decimals of the stands table's numbers: hectares to the m², heights and diameters to the
 #: cm, per-hectare figures to 0.1, percentages to 0.01, azimuths to 0.1°
 STAND_DECIMALS = {"area_ha": 4, "planted_area_ha": 4, "data_cover_pct": 2,
-                  "canopy_cover_pct": 2, "stocking_pct": 2, "trees_per_ha": 1,
+                  "canopy_cover_pct": 2, "stocking_pct": 2, "stocking_pct_low": 2,
+                  "stocking_pct_high": 2, "trees_per_ha": 1,
                   "planted_per_ha": 1, "mean_height": 2, "sd_height": 2, "dominant_height": 2,
                   "mean_crown_diameter": 2, "row_azimuth": 1}
 

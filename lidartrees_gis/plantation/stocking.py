@@ -147,6 +147,11 @@ def row_heading(grid: PlantingGrid) -> tuple:
     return s, (a if s > 0 else a - 180.0)
 
 
+#: a lattice is square, its rows' direction a choice the returns cannot make, when its two
+#: spacings differ by at most this share
+SQUARE_SHARE = 0.05
+
+
 def crew_numbers(grid: PlantingGrid, i, j, anchor=None) -> tuple:
     """Row and plant numbers of planting positions ``(i, j)`` as a field crew counts them, and
     the rule in words. The rows are taken to run towards the northern half (bearing in
@@ -154,8 +159,9 @@ def crew_numbers(grid: PlantingGrid, i, j, anchor=None) -> tuple:
     direction (the west side of north-south rows, the north side of east-west ones) and the
     rows count across the stand; in each row, plant 1 is the row's first position from its
     southern (western) end, counted along the row with the gaps. ``anchor``: the stand's
-    first row and rows' first positions
-    (:func:`lidartrees_gis.plantation.positions.lattice_anchor`), so that the numbers are the
+    first row and rows' first positions (:func:`lidartrees_gis.plantation.positions.span_anchor`:
+    its outermost planted row and each row's first planted position, so that a position before
+    a row's first tree is plant 0 or below), so that the numbers are the
     stand's whichever tile counts them; without it, those of the positions given. Returns
     ``(row, plant, text)``."""
     i = np.asarray(i, float)
@@ -172,8 +178,8 @@ def crew_numbers(grid: PlantingGrid, i, j, anchor=None) -> tuple:
         own[~own] = first[k[~own]] == np.iinfo(np.int64).max
         row = k + 1
         plant = np.zeros(ii.size, np.int64)
-        plant[~own] = ii[~own] - first[k[~own]] + 1
-        own |= plant < 1  # a position before its row's first node: numbered as given
+        plant[~own] = ii[~own] - first[k[~own]] + 1  # 0 or below: before the row's first
+        # planted position (its end, where the returns must settle whether a tree stands)
     else:
         row = np.zeros(ii.size, np.int64)
         plant = np.zeros(ii.size, np.int64)
@@ -186,6 +192,8 @@ def crew_numbers(grid: PlantingGrid, i, j, anchor=None) -> tuple:
             f"{_compass(run)}, row azimuth {axial_round(grid.azimuth):.1f}°), plant 1 at the "
             f"{_compass(run + 180.0)} end of each row"
             + (", within each stand" if anchor is not None else ""))
+    if abs(grid.row_spacing - grid.tree_spacing) <= SQUARE_SHARE * grid.tree_spacing:
+        text += "; a square lattice, whose rows could run either way"
     return row, plant, text
 
 

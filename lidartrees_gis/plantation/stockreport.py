@@ -46,7 +46,8 @@ def stocking_fields(spacing, azimuth: float, st: dict, *, tops: int | None = Non
     unc = st.get("uncertain_stocked", 0.0)
     if spacing is None or not e:  # -spacing auto and no lattice found, or no position
         if spacing is None:
-            why = (f"no planting lattice: {tops} tops, fewer than the {PLANTING_MIN_TREES} "
+            why = ("no planting lattice: no tree top in it" if tops == 0 else
+                   f"no planting lattice: {tops} tops, fewer than the {PLANTING_MIN_TREES} "
                    "needed" if tops is not None and tops < PLANTING_MIN_TREES else why or
                    "no planting lattice: the tops lie in no rows of one direction and spacing")
         else:
