@@ -117,7 +117,8 @@ def quicklook_figure(chm, labels, rows, cols, *, spec=None, title=None, gaps=Non
     else:
         tx, ty = c + 0.5, r + 0.5
     ax.scatter(tx, ty, s=_marker_size(len(r), 1), c="#e31a1c",
-               edgecolors="white", linewidths=0.4, zorder=3, label=f"tree tops ({len(r):,})")
+               edgecolors="white", linewidths=0.4, zorder=3,
+               label=f"trees with a crown ({len(r):,})")
     n_gaps = n_sup = 0
     if suppressed is not None and len(suppressed[0]):
         sx, sy = (np.asarray(v, float) for v in suppressed)
