@@ -231,7 +231,7 @@ def outline_rings(labels, n: int):
     return vr[:nv], vc[:nv], ring_lab[:k], ring_end[:k], ring_area[:k], ring_pinch[:k]
 
 
-def crown_polygons(labels, spec: GridSpec, n: int, *, wkb: bool = False) -> list:
+def crown_polygons(labels, spec: GridSpec, n: int, *, wkb: bool = False, boxes: bool = False):
     """One shapely polygon per crown label 1..n (None for an empty crown), from the label grid
     (4-connected outlines, valid geometries; a crown in several pieces gives its largest).
     ``wkb``: each polygon's WKB instead (an object array; what the GeoPackage gets).
@@ -240,18 +240,27 @@ def crown_polygons(labels, spec: GridSpec, n: int, *, wkb: bool = False) -> list
     through rasterio was 5 s of a 16 M point chain at 0.5 m cells, most of it building
     GeoJSON-like lists) and built in one vectorised shapely call; with ``wkb``, the crowns in
     one piece without a diagonal touch (nearly all) go straight from their rings to WKB
-    (:func:`polygons_wkb`: building the polygons and writing them was 0.6 s of that chain)."""
+    (:func:`polygons_wkb`: building the polygons and writing them was 0.6 s of that chain).
+    ``boxes``: also each polygon's bounds, ``(n, 4)`` minx, miny, maxx, maxy (NaN for none):
+    what a GeoPackage's spatial index is made of (:mod:`lidartrees_gis.io.gpkg_rtree`);
+    returns ``(polygons, bounds)``."""
     import sys
 
     import shapely
 
+    box = np.full((n, 4), np.nan)
     if not HAVE_NUMBA:
         out = _crown_polygons_gdal(labels, spec, n)
-        return shapely.to_wkb(np.array(out + [None], dtype=object))[:-1] if wkb else out
+        arr = np.array(out + [None], dtype=object)[:-1]
+        if boxes:
+            box[:] = shapely.bounds(arr)
+        res = shapely.to_wkb(np.r_[arr, [None]])[:-1] if wkb else out
+        return (res, box) if boxes else res
     out = np.array([None] * n, dtype=object)
     vr, vc, ring_lab, ring_end, ring_area, ring_pinch = outline_rings(labels, n)
     if ring_lab.size == 0:
-        return out if wkb else out.tolist()
+        res = out if wkb else out.tolist()
+        return (res, box) if boxes else res
     x = spec.left + vc * spec.res
     y = spec.top - vr * spec.res
     starts = np.r_[0, ring_end[:-1]]
@@ -275,6 +284,11 @@ def crown_polygons(labels, spec: GridSpec, n: int, *, wkb: bool = False) -> list
         first = np.flatnonzero(np.r_[True, dl[1:] != dl[:-1]])
         out[keys[direct] - 1] = polygons_wkb(x, y, starts, sizes, order[sel],
                                              np.r_[first, dl.size])
+        if boxes:  # a crown in one piece: the bounds of its outer ring (first in ``order``)
+            shell = order[sel][first]
+            box[keys[direct] - 1] = np.column_stack([
+                np.minimum.reduceat(x, starts)[shell], np.minimum.reduceat(y, starts)[shell],
+                np.maximum.reduceat(x, starts)[shell], np.maximum.reduceat(y, starts)[shell]])
     # the others as shapely polygons: their rings only
     need = np.zeros(ring_lab.size, bool)
     need[order[rest]] = True
@@ -301,12 +315,14 @@ def crown_polygons(labels, spec: GridSpec, n: int, *, wkb: bool = False) -> list
     fixed = shapely.make_valid(np.array([out[i] for i in bad], dtype=object)) if bad else []
     for i, g in zip(bad, fixed):  # a ring that touches itself: split where it touches
         out[i] = _largest_polygon(g)
-    if not wkb:
-        return out.tolist()
     geom = np.array([isinstance(g, shapely.Geometry) for g in out], bool)
+    if boxes and geom.any():
+        box[geom] = shapely.bounds(out[geom])
+    if not wkb:
+        return (out.tolist(), box) if boxes else out.tolist()
     if geom.any():
         out[geom] = shapely.to_wkb(out[geom])
-    return out
+    return (out, box) if boxes else out
 
 
 def _largest_polygon(g):

@@ -146,6 +146,14 @@ def tree_arrays(r: dict) -> dict:
     rows = {c: np.asarray(r[c])[order] for c in TREE_FIELDS}
     for g in ("wkb", "top_wkb"):
         rows[g] = np.asarray(list(r[g]), dtype=object)[order]
+    box = r.get("crown_box")
+    if box is None or len(box) != order.size:  # a result stored by an older version
+        import shapely
+
+        box = shapely.bounds(shapely.from_wkb(np.r_[rows["wkb"], [None]])[:-1])
+        rows["crown_box"] = box
+    else:
+        rows["crown_box"] = np.asarray(box, float).reshape(-1, 4)[order]
     if r.get("crown_method"):  # the method that grew the tile's crowns
         rows["method"] = np.full(order.size, r["crown_method"], dtype=object)
     return rows
@@ -162,6 +170,12 @@ def small_crowns(crown_area, n_cells) -> np.ndarray:
     """Which crowns are flagged small (see :data:`SMALL_CROWN_M2`)."""
     return (np.asarray(crown_area, float) < SMALL_CROWN_M2) | \
         (np.asarray(n_cells) < SMALL_CROWN_CELLS)
+
+
+def _point_boxes(x, y) -> np.ndarray:
+    """Points' bounds (``(n, 4)``: x, y, x, y)."""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    return np.column_stack([x, y, x, y])
 
 
 def stand_names(index, stand_ids) -> np.ndarray:
@@ -292,6 +306,11 @@ class GpkgTreeLayers(TreeLayers):
         self.wkt = crs.to_wkt() if crs is not None else None
         self.pending, self.pending_rows = [], 0
         self.old_ids = self._existing_ids()
+        # the new layers' spatial indexes, made at the end from the features' bounds
+        # (io.gpkg_rtree: GDAL's, updated feature by feature, was two thirds of the writing);
+        # not when -lco says how to index
+        self.boxes = {}
+        self.defer = not any(str(k).upper() == "SPATIAL_INDEX" for k in (self.lco or {}))
 
     def _existing_ids(self) -> set:
         import pyogrio
@@ -308,15 +327,22 @@ class GpkgTreeLayers(TreeLayers):
         self.created.add(layer)
         return new
 
-    def _raw(self, wkb, fields: dict, layer, geometry_type) -> None:
+    def _raw(self, wkb, fields: dict, layer, geometry_type, bounds) -> None:
+        """Write features (``bounds``: their ``(n, 4)`` bounds, for the spatial index)."""
         import pyogrio.raw
 
         new = self._new(layer)
+        lco = self.lco
+        if new and self.defer:
+            lco = {**(self.lco or {}), "SPATIAL_INDEX": "NO"}
+            self.boxes[layer] = []
+        if layer in self.boxes:
+            self.boxes[layer].append(np.asarray(bounds, float).reshape(-1, 4))
         with warnings.catch_warnings():  # points without a CRS (a TLS tree in local coordinates)
             warnings.filterwarnings("ignore", message="'crs' was not provided")
             pyogrio.raw.write(self.path, wkb, list(fields.values()), list(fields), layer=layer,
                               driver="GPKG", geometry_type=geometry_type, crs=self.wkt,
-                              append=not new, layer_options=self.lco if new else None,
+                              append=not new, layer_options=lco if new else None,
                               layer_metadata=self.meta if new else None,
                               dataset_options=None if Path(self.path).exists()
                               else GPKG_DATASET_OPTIONS)
@@ -340,7 +366,7 @@ class GpkgTreeLayers(TreeLayers):
 
             g = gap_arrays(st, r["res"], r["tile"], self.stand_ids)
             self._raw(shapely.to_wkb(shapely.points(g["x"], g["y"])), g, self.names["gaps"],
-                      "Point")
+                      "Point", _point_boxes(g["x"], g["y"]))
 
     def flush(self) -> None:
         if self.pending:
@@ -349,9 +375,12 @@ class GpkgTreeLayers(TreeLayers):
             for layer, g, kind in (("tree_tops", "top_wkb", "Point"), ("crowns", "wkb", "Polygon")):
                 wkb = np.concatenate([p[g] for p in self.pending])
                 fields = data
+                box = _point_boxes(data["x"], data["y"]) if layer == "tree_tops" else \
+                    np.concatenate([p["crown_box"] for p in self.pending])
                 if layer == "crowns" and not crowned.all():
                     wkb, fields = wkb[crowned], {k: v[crowned] for k, v in data.items()}
-                self._raw(wkb, fields, self.names[layer], kind)
+                    box = box[crowned]
+                self._raw(wkb, fields, self.names[layer], kind, box)
         self.pending, self.pending_rows = [], 0
 
     def finish(self, summary: dict, plantation: bool, stands=None) -> None:
@@ -362,13 +391,14 @@ class GpkgTreeLayers(TreeLayers):
         for layer, kind in (("tree_tops", "Point"), ("crowns", "Polygon")):
             if self.names[layer] not in self.created | self.existing:  # no tree: empty layers
                 data = self._fields([])
-                self._raw(np.empty(0, object), data, self.names[layer], kind)
+                self._raw(np.empty(0, object), data, self.names[layer], kind, np.empty((0, 4)))
         if plantation and self.names["gaps"] not in self.created | self.existing:
             import shapely
 
             g = gap_arrays({"gaps": Positions.empty()}, 1.0, (), self.stand_ids)
             self._raw(shapely.to_wkb(shapely.points(g["x"], g["y"])), g, self.names["gaps"],
-                      "Point")
+                      "Point", np.empty((0, 4)))
+        self._index()
         with warnings.catch_warnings():
             warnings.filterwarnings("ignore", message=".*geometry.*")
             pyogrio.write_dataframe(pd.DataFrame([summary]), self.path,
@@ -386,6 +416,33 @@ class GpkgTreeLayers(TreeLayers):
                                         layer_options=self.lco)
                 describe_columns(self.path, self.names["stands"], field_docs(frame.columns))
         embed_styles(self.path, {self.names[k]: qml for k, qml in LAYER_STYLES.items()})
+
+    def _index(self) -> None:
+        """The spatial index of each layer this run made (:func:`~lidartrees_gis.io.gpkg_rtree.
+        add_rtree`), from the bounds kept as its features were written (in fid order)."""
+        import sqlite3
+
+        from ..io.gpkg_rtree import add_rtree
+
+        if not self.boxes:
+            return
+        con = sqlite3.connect(str(self.path))
+        try:
+            for layer, parts in self.boxes.items():
+                col = con.execute("SELECT column_name FROM gpkg_geometry_columns WHERE "
+                                  "table_name = ?", (layer,)).fetchone()[0]
+                pk = next(r[1] for r in con.execute(f'PRAGMA table_info("{layer}")') if r[5])
+                fids = np.array([r[0] for r in con.execute(
+                    f'SELECT "{pk}" FROM "{layer}" ORDER BY "{pk}"')], np.int64)
+                box = np.concatenate(parts) if parts else np.empty((0, 4))
+                if fids.size != len(box):  # pragma: no cover - GDAL numbers them as written
+                    raise RuntimeError(f"{self.path}: {layer}: {fids.size} features, "
+                                       f"{len(box)} bounds")
+                add_rtree(con, layer, col, fids, box, pk=pk)
+            con.commit()
+        finally:
+            con.close()
+        self.boxes = {}
 
 
 #: the trees table of ``-csv``: the tree's id (text: a spreadsheet keeps its 16 digits),

@@ -154,8 +154,8 @@ def detect_with_stocking(arr, spec, params: TreeParams, heights=None, progress=N
 
 def _empty_trees(tile: Tile, res: float) -> dict:
     out = {c: np.empty(0, np.int64 if c in INT_FIELDS else np.float64) for c in TREE_FIELDS}
-    out.update({"wkb": [], "top_wkb": [], "gap_trees": 0, "planting": None, "stocking": None,
-                "stand_stocking": None, "stand_cells": {},
+    out.update({"wkb": [], "top_wkb": [], "crown_box": np.empty((0, 4)), "gap_trees": 0,
+                "planting": None, "stocking": None, "stand_stocking": None, "stand_cells": {},
                 "chm": np.empty((0, 0), np.float32), "chm_left": tile.box[0],
                 "chm_top": tile.box[3], "res": res, "canopy_cells": 0, "points": 0,
                 "dropped": {}, "outlier_points": 0, "tile": tile.index})
@@ -302,7 +302,7 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
     idx = np.nonzero(tile.in_core(t["x"], t["y"]))[0]
     remap = np.zeros(len(t["x"]) + 1, np.int64)
     remap[idx + 1] = np.arange(1, idx.size + 1)
-    wkb = crown_polygons(remap[r["labels"]], spec, idx.size, wkb=True)
+    wkb, box = crown_polygons(remap[r["labels"]], spec, idx.size, wkb=True, boxes=True)
     st = r.get("stocking")  # plantation mode: the core's positions
     if st is not None:
         t = {**t, "row_number": st["tops_row"], "plant_number": st["tops_plant"]}
@@ -339,8 +339,10 @@ def tile_trees(tile: Tile, area, params: TreeParams, plan: AreaPlan, surface: Su
         out = {c: np.r_[out[c], under[c]] for c in TREE_FIELDS} | {
             k: v for k, v in out.items() if k not in TREE_FIELDS}
         wkb = np.r_[wkb, np.array([None] * len(under["x"]), dtype=object)]
+        box = np.r_[box, np.full((len(under["x"]), 4), np.nan)]
     n = len(out["x"])
     out["wkb"] = wkb if n else []
+    out["crown_box"] = box if n else np.empty((0, 4))  # the crowns' bounds (spatial index)
     out["top_wkb"] = shapely.to_wkb(shapely.points(out["x"], out["y"])) if n else []
     r0, r1, c0, c1 = core_window(spec, tile.core)
     core = s["chm"][r0:r1, c0:c1]
