@@ -336,8 +336,10 @@ class GpkgTreeLayers(TreeLayers):
         if new and self.defer:
             lco = {**(self.lco or {}), "SPATIAL_INDEX": "NO"}
             self.boxes[layer] = []
-        if layer in self.boxes:
-            self.boxes[layer].append(np.asarray(bounds, float).reshape(-1, 4))
+        if layer in self.boxes:  # as the R-tree keeps them: float32, 16 bytes a feature
+            from ..io.gpkg_rtree import float32_box
+
+            self.boxes[layer].append(float32_box(bounds))
         with warnings.catch_warnings():  # points without a CRS (a TLS tree in local coordinates)
             warnings.filterwarnings("ignore", message="'crs' was not provided")
             pyogrio.raw.write(self.path, wkb, list(fields.values()), list(fields), layer=layer,
@@ -432,9 +434,12 @@ class GpkgTreeLayers(TreeLayers):
                 col = con.execute("SELECT column_name FROM gpkg_geometry_columns WHERE "
                                   "table_name = ?", (layer,)).fetchone()[0]
                 pk = next(r[1] for r in con.execute(f'PRAGMA table_info("{layer}")') if r[5])
-                fids = np.array([r[0] for r in con.execute(
-                    f'SELECT "{pk}" FROM "{layer}" ORDER BY "{pk}"')], np.int64)
-                box = np.concatenate(parts) if parts else np.empty((0, 4))
+                lo, hi, n = con.execute(f'SELECT min("{pk}"), max("{pk}"), count(*) FROM '
+                                        f'"{layer}"').fetchone()
+                fids = np.arange(lo, hi + 1, dtype=np.int64) if n and hi - lo + 1 == n else \
+                    np.array([r[0] for r in con.execute(
+                        f'SELECT "{pk}" FROM "{layer}" ORDER BY "{pk}"')], np.int64)
+                box = np.concatenate(parts) if parts else np.empty((0, 4), np.float32)
                 if fids.size != len(box):  # pragma: no cover - GDAL numbers them as written
                     raise RuntimeError(f"{self.path}: {layer}: {fids.size} features, "
                                        f"{len(box)} bounds")

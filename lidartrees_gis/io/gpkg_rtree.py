@@ -77,7 +77,10 @@ TRIGGERS_14 = (
 def float32_box(bounds) -> np.ndarray:
     """``(n, 4)`` bounds ``minx, miny, maxx, maxy`` (float64, shapely's order) as an R-tree
     cell's ``minx, maxx, miny, maxy`` in float32, each minimum rounded down and maximum up
-    (as SQLite stores them: the box always holds the geometry)."""
+    (as SQLite stores them: the box always holds the geometry). Boxes already so (a float32
+    array) are returned as they are."""
+    if isinstance(bounds, np.ndarray) and bounds.dtype == np.float32:
+        return bounds.reshape(-1, 4)
     b = np.asarray(bounds, np.float64).reshape(-1, 4)[:, [0, 2, 1, 3]]
     f = b.astype(np.float32)
     lo, hi = f[:, 0::2], f[:, 1::2]
@@ -104,13 +107,13 @@ def _str_order(box: np.ndarray, cap: int) -> np.ndarray:
 
 def rtree_tables(fids, bounds, cap: int = MAX_CELLS) -> tuple:
     """The contents of an R-tree's ``_node``, ``_rowid`` and ``_parent`` tables for features
-    ``fids`` with ``bounds`` (``(n, 4)``: minx, miny, maxx, maxy; rows with a NaN left out).
-    Returns ``(nodes, rowid, parent)``: lists of ``(nodeno, blob)``, ``(fid, leaf nodeno)``,
+    ``fids`` with ``bounds`` (``(n, 4)``: minx, miny, maxx, maxy; rows with a NaN left out;
+    or :func:`float32_box`'s boxes). Returns ``(nodes, rowid, parent)``: lists of ``(nodeno, blob)``, ``(fid, leaf nodeno)``,
     ``(nodeno, parent nodeno)``; node 1 is the root, whose first two bytes hold the depth."""
     fids = np.asarray(fids, np.int64)
-    bounds = np.asarray(bounds, np.float64).reshape(-1, 4)
-    ok = np.isfinite(bounds).all(axis=1)
-    ids, box = fids[ok], float32_box(bounds[ok])
+    box = float32_box(bounds)
+    ok = np.isfinite(box).all(axis=1)
+    ids, box = fids[ok], box[ok]
     if not ids.size:
         return [(1, bytes(NODE_BYTES))], [], []
     levels = []  # per level, from the leaves: (child ids of each node, boxes) in node order
