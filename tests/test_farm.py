@@ -238,6 +238,20 @@ def test_evaluate_pairs_follow_the_table_options(farm, tmp_path, locale):
     assert all(len(str(v).split(".")[-1]) <= 2 for v in got["det_x"].head(50))
 
 
+def _numbered_as_the_generator(tops) -> list:
+    """Assert each stand's trees carry the generator's row and plant (row 1 at 1.5 m from the
+    stand's west edge, plant 1 at 1 m from the south edge); returns each stand's trees."""
+    out = []
+    for sid, x0 in (("T-01", OX), ("T-02", OX + 40)):
+        own = tops[(tops["stand_id"] == sid) & (tops["row_number"] > 0)]
+        want_row = np.round((own["x"] - x0 - 1.5) / 3).astype(int) + 1
+        want_plant = np.round((own["y"] - OY - 1.0) / 2).astype(int) + 1
+        assert (own["row_number"] == want_row).mean() > 0.99, sid
+        assert (own["plant_number"] == want_plant).mean() > 0.99, sid
+        out.append(own)
+    return out
+
+
 def test_rows_and_plants_are_numbered_per_stand_in_every_tiling(farm, tmp_path, locale):
     """Every tree and gap gets the same row and plant numbers whether the farm runs as one
     tile or in 30 m tiles: each stand numbered from its own first row and plant (the library
@@ -266,12 +280,7 @@ def test_rows_and_plants_are_numbered_per_stand_in_every_tiling(farm, tmp_path, 
         assert (g1.loc[gc, c] == g2.loc[gc, c]).all(), c
     # each stand counts from its own first row: row 1 at 1.5 m from its west edge, plant 1 at
     # 1 m from the south edge (the generator's layout), in both stands
-    for sid, x0 in (("T-01", OX), ("T-02", OX + 40)):
-        own = t1[(t1["stand_id"] == sid) & (t1["row_number"] > 0)]
-        want_row = np.round((own["x"] - x0 - 1.5) / 3).astype(int) + 1
-        want_plant = np.round((own["y"] - OY - 1.0) / 2).astype(int) + 1
-        assert (own["row_number"] == want_row).mean() > 0.99, sid
-        assert (own["plant_number"] == want_plant).mean() > 0.99, sid
+    for own in _numbered_as_the_generator(t1):
         assert own["row_number"].min() == 1 and own["plant_number"].min() == 1
     # stands drawn along the roads around them, 6 m out from the first row and plant: row 1
     # is still the first planted row, plant 1 each row's first tree (once the numbers started
@@ -284,9 +293,4 @@ def test_rows_and_plants_are_numbered_per_stand_in_every_tiling(farm, tmp_path, 
            "-spacing", "3x2")
     t3 = pyogrio.read_dataframe(tmp_path / "roads_out.gpkg", layer="tree_tops",
                                 read_geometry=False)
-    for sid, x0 in (("T-01", OX), ("T-02", OX + 40)):
-        own = t3[(t3["stand_id"] == sid) & (t3["row_number"] > 0)]
-        want_row = np.round((own["x"] - x0 - 1.5) / 3).astype(int) + 1
-        want_plant = np.round((own["y"] - OY - 1.0) / 2).astype(int) + 1
-        assert (own["row_number"] == want_row).mean() > 0.99, sid
-        assert (own["plant_number"] == want_plant).mean() > 0.99, sid
+    _numbered_as_the_generator(t3)

@@ -470,10 +470,10 @@ def _stands_result(stands, rows, tally, stand_csv) -> dict:
 
 def _square(spacing) -> str:
     """The stand line's words for a square lattice (its rows could run either way)."""
-    from ..plantation.stocking import SQUARE_SHARE
+    from ..plantation.stocking import is_square
 
     r, c = (float(v) for v in str(spacing).split("x"))
-    return ", or across: a square lattice" if abs(r - c) <= SQUARE_SHARE * c else ""
+    return ", or across: a square lattice" if is_square(r, c) else ""
 
 
 def _density(area, plan: AreaPlan, ready, runner) -> float:

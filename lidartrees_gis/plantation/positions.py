@@ -410,7 +410,7 @@ def span_anchor(grid: PlantingGrid, span) -> tuple:
     si = first if s > 0 else -last
     j0 = int(sj.min())
     out = np.full(int(sj.max()) - j0 + 1, np.iinfo(np.int64).max, np.int64)
-    np.minimum.at(out, sj - j0, si)
+    out[sj - j0] = si  # one span per row
     return j0, out
 
 

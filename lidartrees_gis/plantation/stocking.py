@@ -152,6 +152,11 @@ def row_heading(grid: PlantingGrid) -> tuple:
 SQUARE_SHARE = 0.05
 
 
+def is_square(row_spacing: float, tree_spacing: float) -> bool:
+    """Whether a lattice of these spacings is square (:data:`SQUARE_SHARE`)."""
+    return abs(row_spacing - tree_spacing) <= SQUARE_SHARE * tree_spacing
+
+
 def crew_numbers(grid: PlantingGrid, i, j, anchor=None) -> tuple:
     """Row and plant numbers of planting positions ``(i, j)`` as a field crew counts them, and
     the rule in words. The rows are taken to run towards the northern half (bearing in
@@ -192,7 +197,7 @@ def crew_numbers(grid: PlantingGrid, i, j, anchor=None) -> tuple:
             f"{_compass(run)}, row azimuth {axial_round(grid.azimuth):.1f}°), plant 1 at the "
             f"{_compass(run + 180.0)} end of each row"
             + (", within each stand" if anchor is not None else ""))
-    if abs(grid.row_spacing - grid.tree_spacing) <= SQUARE_SHARE * grid.tree_spacing:
+    if is_square(grid.row_spacing, grid.tree_spacing):
         text += "; a square lattice, whose rows could run either way"
     return row, plant, text
 
